@@ -1,0 +1,4 @@
+//! Shared helpers for the host tests: an independent fine-step reference integrator of the
+//! same physics, and tolerance helpers.
+
+pub mod reference;
