@@ -50,7 +50,9 @@ fn add_scaled(a: &Mat, b: &Mat, s: f64) -> Mat {
 }
 
 fn norm_inf(a: &Mat) -> f64 {
-    a.iter().map(|r| r.iter().map(|v| v.abs()).sum::<f64>()).fold(0.0, f64::max)
+    a.iter()
+        .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
+        .fold(0.0, f64::max)
 }
 
 /// `(Φ, Ψ)` with `Φ = e^{A h}` and `Ψ = ∫₀ʰ e^{As} ds`; `Γ = Ψ B`.

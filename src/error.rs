@@ -54,7 +54,9 @@ impl ParamError {
 
 fn range_hint(field: &str) -> &'static str {
     match field {
-        "backlash.total_deg" => "must be below 10 degrees (a dead zone wider than that is not gear backlash)",
+        "backlash.total_deg" => {
+            "must be below 10 degrees (a dead zone wider than that is not gear backlash)"
+        }
         "effects.tach_gain" => "must be greater than -1 (a relative gain error of -100 % or worse)",
         "effects.input_delay" => "must be at most crate::plant::MAX_DELAY_STEPS sample periods",
         "effects.voltage_limit" => "must be zero (no limit) or positive",

@@ -2,7 +2,12 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![cfg_attr(
     not(test),
-    deny(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::indexing_slicing,
+        clippy::panic
+    )
 )]
 
 pub mod discretise;
@@ -18,3 +23,6 @@ pub use params::{
     ToothGeometry, REFERENCE,
 };
 pub use plant::{Outputs, Plant, PlantState};
+
+#[cfg(feature = "host")]
+pub mod host;

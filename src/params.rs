@@ -199,7 +199,11 @@ pub const REFERENCE: ActuatorParams = ActuatorParams {
                 pinion_youngs_modulus_pa: 206e9,
                 gear_youngs_modulus_pa: 206e9,
             },
-            shaft1: Shaft { shear_modulus_pa: 79.3e9, diameter_m: 0.004, length_m: 0.025 },
+            shaft1: Shaft {
+                shear_modulus_pa: 79.3e9,
+                diameter_m: 0.004,
+                length_m: 0.025,
+            },
             stage2: ToothGeometry {
                 gear_pitch_diameter_m: 0.060,
                 face_width_m: 0.006,
@@ -208,10 +212,17 @@ pub const REFERENCE: ActuatorParams = ActuatorParams {
                 pinion_youngs_modulus_pa: 206e9,
                 gear_youngs_modulus_pa: 206e9,
             },
-            shaft2: Shaft { shear_modulus_pa: 79.3e9, diameter_m: 0.008, length_m: 0.045 },
+            shaft2: Shaft {
+                shear_modulus_pa: 79.3e9,
+                diameter_m: 0.008,
+                length_m: 0.045,
+            },
         },
     },
-    load: LoadParams { inertia_kg_m2: 1.0e-3, coulomb_friction_nm: 5.0e-3 },
+    load: LoadParams {
+        inertia_kg_m2: 1.0e-3,
+        coulomb_friction_nm: 5.0e-3,
+    },
     backlash_deg: 0.0,
     effects: Effects::NONE,
 };
@@ -317,10 +328,16 @@ impl Table {
             "gear_stage_2.pinion_youngs_modulus_pa",
             "gear_stage_2.gear_youngs_modulus_pa",
         ];
-        const RS: [&str; 3] =
-            ["rotating_shaft.shear_modulus_pa", "rotating_shaft.diameter_m", "rotating_shaft.length_m"];
-        const FS: [&str; 3] =
-            ["fixed_shaft.shear_modulus_pa", "fixed_shaft.diameter_m", "fixed_shaft.length_m"];
+        const RS: [&str; 3] = [
+            "rotating_shaft.shear_modulus_pa",
+            "rotating_shaft.diameter_m",
+            "rotating_shaft.length_m",
+        ];
+        const FS: [&str; 3] = [
+            "fixed_shaft.shear_modulus_pa",
+            "fixed_shaft.diameter_m",
+            "fixed_shaft.length_m",
+        ];
         let keys: &[&'static str] = match self {
             Table::Stage1 => &S1,
             Table::Stage2 => &S2,
@@ -354,19 +371,30 @@ impl ActuatorParams {
         let n_r = if g.revolving { n2 + 1.0 } else { n2 };
         let n_total = n1 * n_r;
         let (k1, k2) = match g.stiffness {
-            Stiffness::Geometry { stage1, shaft1, stage2, shaft2 } => {
+            Stiffness::Geometry {
+                stage1,
+                shaft1,
+                stage2,
+                shaft2,
+            } => {
                 let kg1 = stage1.stiffness(Table::Stage1)?;
                 let ks1 = shaft1.stiffness(Table::RotatingShaft)?;
                 let kg2 = stage2.stiffness(Table::Stage2)?;
                 let ks2 = shaft2.stiffness(Table::FixedShaft)?;
                 (stiffness::series(kg1, ks1), stiffness::series(kg2, ks2))
             }
-            Stiffness::Measured { k1_nm_per_rad, k2_nm_per_rad } => (
+            Stiffness::Measured {
+                k1_nm_per_rad,
+                k2_nm_per_rad,
+            } => (
                 positive(k1_nm_per_rad, "stiffness.k1_nm_per_rad")?,
                 positive(k2_nm_per_rad, "stiffness.k2_nm_per_rad")?,
             ),
         };
-        let k_eq = positive(stiffness::equivalent(n_r, k1, k2), "stiffness.k2_nm_per_rad")?;
+        let k_eq = positive(
+            stiffness::equivalent(n_r, k1, k2),
+            "stiffness.k2_nm_per_rad",
+        )?;
 
         let jl = positive(self.load.inertia_kg_m2, "load.inertia_kg_m2")?;
         non_negative(self.load.coulomb_friction_nm, "load.coulomb_friction_nm")?;
@@ -438,13 +466,19 @@ mod tests {
     fn negative_inertia_names_its_field() {
         let mut p = REFERENCE;
         p.load.inertia_kg_m2 = -1.0;
-        assert_eq!(p.derived(), Err(ParamError::NonPositive("load.inertia_kg_m2")));
+        assert_eq!(
+            p.derived(),
+            Err(ParamError::NonPositive("load.inertia_kg_m2"))
+        );
     }
 
     #[test]
     fn nan_resistance_names_its_field() {
         let mut p = REFERENCE;
         p.motor.resistance_ohm = f64::NAN;
-        assert_eq!(p.derived(), Err(ParamError::NonFinite("motor.resistance_ohm")));
+        assert_eq!(
+            p.derived(),
+            Err(ParamError::NonFinite("motor.resistance_ohm"))
+        );
     }
 }

@@ -183,7 +183,10 @@ struct Transition {
     gamma: [[f32; 3]; 5],
 }
 
-const NO_TRANSITION: Transition = Transition { phi: [[0.0; 5]; 5], gamma: [[0.0; 3]; 5] };
+const NO_TRANSITION: Transition = Transition {
+    phi: [[0.0; 5]; 5],
+    gamma: [[0.0; 3]; 5],
+};
 
 /// The six modes with dynamics, indexed `contact·3 + {both slide, motor stuck, load stuck}`;
 /// with both bodies stuck only the current moves, which is done in closed form.
@@ -254,8 +257,13 @@ fn continuous(
 ) -> (Mat, [[f64; 5]; 3]) {
     let m = &p.motor;
     let e = &p.effects;
-    let (r, l, kt, kb, jm) =
-        (m.resistance_ohm, m.inductance_h, m.torque_constant_nm_per_a, m.back_emf_v_s_per_rad, m.inertia_kg_m2);
+    let (r, l, kt, kb, jm) = (
+        m.resistance_ohm,
+        m.inductance_h,
+        m.torque_constant_nm_per_a,
+        m.back_emf_v_s_per_rad,
+        m.inertia_kg_m2,
+    );
     let jl = p.load.inertia_kg_m2;
     let c = e.mesh_damping;
     let mut a = [[0.0f64; 5]; 5];
@@ -342,7 +350,11 @@ fn mode_set(p: &ActuatorParams, n: f64, k: f64, tau: f64) -> Result<ModeSet, Par
         *slot = transition(&a, &b, tau)?;
     }
     let decay = libm::exp(-p.motor.resistance_ohm / p.motor.inductance_h * tau);
-    Ok(ModeSet { modes, decay: decay as f32, tau: tau as f32 })
+    Ok(ModeSet {
+        modes,
+        decay: decay as f32,
+        tau: tau as f32,
+    })
 }
 
 impl Plant {
@@ -400,7 +412,10 @@ impl Plant {
             delta: d.delta_rad as f32,
             tf_m: to_f32(m.coulomb_friction_nm, "motor.coulomb_friction_nm")?,
             tf_l: to_f32(params.load.coulomb_friction_nm, "load.coulomb_friction_nm")?,
-            tach: to_f32(m.tach_v_s_per_rad * (1.0 + params.effects.tach_gain), "effects.tach_gain")?,
+            tach: to_f32(
+                m.tach_v_s_per_rad * (1.0 + params.effects.tach_gain),
+                "effects.tach_gain",
+            )?,
             v_max,
             tau_e: to_f32(m.inductance_h / m.resistance_ohm, "motor.inductance_h")?,
             delay_steps: whole as u8,
@@ -445,7 +460,11 @@ impl Plant {
     pub fn outputs(&self, state: &PlantState) -> Outputs {
         let s = state.vec();
         let gear = self.gear_of(s[X]);
-        let applied = state.history.get(state.head as usize).copied().unwrap_or(0.0);
+        let applied = state
+            .history
+            .get(state.head as usize)
+            .copied()
+            .unwrap_or(0.0);
         Outputs {
             tach_voltage_v: self.tach * s[WM],
             motor_speed_rad_s: s[WM],
@@ -603,7 +622,14 @@ impl Plant {
     /// Exact advance within one mode over the set's step, with voltage `v` (and
     /// `v_late` from the split point of a fractional delay when `late` is given).
     #[inline(always)]
-    fn advance(&self, set: &ModeSet, m: &Mode, s: &Vec5, v: f32, late: Option<(&Vec5, f32)>) -> Vec5 {
+    fn advance(
+        &self,
+        set: &ModeSet,
+        m: &Mode,
+        s: &Vec5,
+        v: f32,
+        late: Option<(&Vec5, f32)>,
+    ) -> Vec5 {
         let mut out = s.map(|_| 0.0);
         if let (Motion::Stuck, Motion::Stuck) = (m.motor, m.load) {
             let i_inf = v / self.r;
@@ -775,14 +801,22 @@ impl Plant {
             let p = true_impulse - mode_impulse;
             // Time from the first edge crossing to the end of the sub-step.
             let edge = if m.gear == 0 {
-                if g1 > 0 { self.delta } else { -self.delta }
+                if g1 > 0 {
+                    self.delta
+                } else {
+                    -self.delta
+                }
             } else if m.gear > 0 {
                 self.delta
             } else {
                 -self.delta
             };
             let tau = (1.0 - fraction(edge - s0[X], s1[X] - s0[X])) * hs;
-            let dwm = if motor_free { -p / (self.n * self.jm) } else { 0.0 };
+            let dwm = if motor_free {
+                -p / (self.n * self.jm)
+            } else {
+                0.0
+            };
             let dwl = if load_free { p / self.jl } else { 0.0 };
             s1[WM] += dwm;
             s1[WL] += dwl;
@@ -899,7 +933,9 @@ impl Plant {
     /// stuck, so there is no back-EMF); the gear torque is taken as its sub-step mean.
     fn motor_breakaway(&self, s0: &Vec5, s1: &Vec5, t1: f32, v: f32, hs: f32) -> (f32, f32) {
         let sg = if t1 > 0.0 { 1.0 } else { -1.0 };
-        let tl_mean = 0.5 * (self.transmitted(s0, self.gear_of(s0[X])) + self.transmitted(s1, self.gear_of(s1[X])));
+        let tl_mean = 0.5
+            * (self.transmitted(s0, self.gear_of(s0[X]))
+                + self.transmitted(s1, self.gear_of(s1[X])));
         let i_inf = v / self.r;
         // σ·drive(t) = a + b e^{−t/τe}
         let a = sg * (self.kt * i_inf - tl_mean / self.n);

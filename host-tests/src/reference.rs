@@ -61,7 +61,11 @@ impl Reference {
             n: d.n_total,
             k: d.k_eq_nm_per_rad,
             delta: d.delta_rad,
-            vmax: if p.effects.voltage_limit > 0.0 { p.effects.voltage_limit } else { f64::INFINITY },
+            vmax: if p.effects.voltage_limit > 0.0 {
+                p.effects.voltage_limit
+            } else {
+                f64::INFINITY
+            },
             substeps,
             h: p.sample_period_s / substeps as f64,
             s: [0.0; 5],
@@ -85,11 +89,18 @@ impl Reference {
     /// Torques on (motor, load) other than Coulomb friction.
     fn drives(&self, s: &[f64; 5]) -> (f64, f64) {
         let tl = self.gear_torque(s);
-        (self.kt * s[0] - tl / self.n - self.cm * s[2], tl - self.cl * s[4] - self.kh * s[3])
+        (
+            self.kt * s[0] - tl / self.n - self.cm * s[2],
+            tl - self.cl * s[4] - self.kh * s[3],
+        )
     }
 
     fn coulomb(speed: f64, drive: f64, tf: f64) -> f64 {
-        let dir = if speed != 0.0 { speed.signum() } else { drive.signum() };
+        let dir = if speed != 0.0 {
+            speed.signum()
+        } else {
+            drive.signum()
+        };
         if speed == 0.0 && drive.abs() <= tf {
             -drive
         } else {
@@ -99,9 +110,23 @@ impl Reference {
 
     fn deriv(&self, s: &[f64; 5], v: f64) -> [f64; 5] {
         let (dm, dl) = self.drives(s);
-        let am = if self.stuck_m { 0.0 } else { (dm + Self::coulomb(s[2], dm, self.tfm)) / self.jm };
-        let al = if self.stuck_l { 0.0 } else { (dl + Self::coulomb(s[4], dl, self.tfl)) / self.jl };
-        [(v - self.r * s[0] - self.kb * s[2]) / self.l, s[2], am, s[4], al]
+        let am = if self.stuck_m {
+            0.0
+        } else {
+            (dm + Self::coulomb(s[2], dm, self.tfm)) / self.jm
+        };
+        let al = if self.stuck_l {
+            0.0
+        } else {
+            (dl + Self::coulomb(s[4], dl, self.tfl)) / self.jl
+        };
+        [
+            (v - self.r * s[0] - self.kb * s[2]) / self.l,
+            s[2],
+            am,
+            s[4],
+            al,
+        ]
     }
 
     fn rk4(&mut self, v: f64) {
@@ -216,7 +241,9 @@ pub fn first_harmonic(y: &[f64], freq_hz: f64, dt: f64, t0: f64) -> (f64, f64) {
 
 fn solve3(mut m: [[f64; 3]; 3], mut r: [f64; 3]) -> [f64; 3] {
     for c in 0..3 {
-        let p = (c..3).max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs())).unwrap_or(c);
+        let p = (c..3)
+            .max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs()))
+            .unwrap_or(c);
         m.swap(c, p);
         r.swap(c, p);
         for row in (c + 1)..3 {

@@ -21,15 +21,32 @@ fn cadd(a: C, b: C) -> C {
 /// and the winding equation: ωm/V = k_t G_m / (L s + R + k_b k_t G_m).
 fn analytic(p: &ActuatorParams, w: f64) -> C {
     let d = p.derived().unwrap();
-    let (n, k, jm, jl) = (d.n_total, d.k_eq_nm_per_rad, p.motor.inertia_kg_m2, p.load.inertia_kg_m2);
+    let (n, k, jm, jl) = (
+        d.n_total,
+        d.k_eq_nm_per_rad,
+        p.motor.inertia_kg_m2,
+        p.load.inertia_kg_m2,
+    );
     let m = &p.motor;
     let s: C = (0.0, w);
     let s2 = cmul(s, s);
     let num = (n * n * (jl * s2.0 + k), n * n * jl * s2.1);
-    let den_inner = (jl * n * n * jm * s2.0 + k * (n * n * jm + jl), jl * n * n * jm * s2.1);
+    let den_inner = (
+        jl * n * n * jm * s2.0 + k * (n * n * jm + jl),
+        jl * n * n * jm * s2.1,
+    );
     let gm = cdiv(num, cmul(s, den_inner));
-    let ktgm = (m.torque_constant_nm_per_a * gm.0, m.torque_constant_nm_per_a * gm.1);
-    let den = cadd((m.resistance_ohm, m.inductance_h * w), (m.back_emf_v_s_per_rad * ktgm.0, m.back_emf_v_s_per_rad * ktgm.1));
+    let ktgm = (
+        m.torque_constant_nm_per_a * gm.0,
+        m.torque_constant_nm_per_a * gm.1,
+    );
+    let den = cadd(
+        (m.resistance_ohm, m.inductance_h * w),
+        (
+            m.back_emf_v_s_per_rad * ktgm.0,
+            m.back_emf_v_s_per_rad * ktgm.1,
+        ),
+    );
     let g = cdiv(ktgm, den);
     (m.tach_v_s_per_rad * g.0, m.tach_v_s_per_rad * g.1)
 }
@@ -104,7 +121,13 @@ fn linear_response_matches_transfer_function() {
             }
             worst_db = worst_db.max(e_db);
             worst_deg = worst_deg.max(e_deg);
-            eprintln!("{f:6.1} Hz sim {:8.3} dB {:8.2}°  ana {:8.3} dB {:8.2}°", db(sim), deg(sim), db(ana), deg(ana));
+            eprintln!(
+                "{f:6.1} Hz sim {:8.3} dB {:8.2}°  ana {:8.3} dB {:8.2}°",
+                db(sim),
+                deg(sim),
+                db(ana),
+                deg(ana)
+            );
         }
         f += 7.0;
     }
@@ -114,7 +137,9 @@ fn linear_response_matches_transfer_function() {
 }
 
 fn sine(vpk: f64, f: f64, n: usize, h: f64) -> Vec<f64> {
-    (0..n).map(|k| vpk * (2.0 * PI * f * k as f64 * h).sin()).collect()
+    (0..n)
+        .map(|k| vpk * (2.0 * PI * f * k as f64 * h).sin())
+        .collect()
 }
 
 fn square(vpk: f64, period_s: f64, n: usize, h: f64) -> Vec<f64> {
@@ -147,7 +172,11 @@ fn converged_reference(p: &ActuatorParams, v: &[f64], name: &str) -> Vec<f64> {
     let a = Reference::new(p, 1e-6).unwrap().run_tach(v);
     let b = Reference::new(p, 0.5e-6).unwrap().run_tach(v);
     let e = relative_rms_error(&a, &b);
-    assert!(e < 5e-4, "{name}: the reference itself moves {:.3} % when its step is halved", 100.0 * e);
+    assert!(
+        e < 5e-4,
+        "{name}: the reference itself moves {:.3} % when its step is halved",
+        100.0 * e
+    );
     a
 }
 
@@ -170,7 +199,11 @@ fn converges_to_fine_rk4_on_non_chaotic_records() {
         let refr = converged_reference(&p, v, name);
         let emu = emulate(&p, v);
         let e = relative_rms_error(&emu, &refr);
-        eprintln!("{name}: relative RMS error {:.4} % (ref RMS {:.3} V)", 100.0 * e, rms(&refr));
+        eprintln!(
+            "{name}: relative RMS error {:.4} % (ref RMS {:.3} V)",
+            100.0 * e,
+            rms(&refr)
+        );
         worst = worst.max(e);
     }
     // Issue #2: within 1 % RMS of the tachometer output.
@@ -197,18 +230,27 @@ fn chaotic_rattle_agrees_in_statistics_not_samples() {
     let refp = Reference::new(&p, 1e-6).unwrap().run_tach(&vp);
     let emu = emulate(&p, &v);
     let sample_gap = relative_rms_error(&refp, &refr);
-    eprintln!("reference vs perturbed reference: {:.2} % sample by sample", 100.0 * sample_gap);
+    eprintln!(
+        "reference vs perturbed reference: {:.2} % sample by sample",
+        100.0 * sample_gap
+    );
     assert!(sample_gap > 0.05, "this record was expected to be chaotic");
     let half = |y: &[f64]| y[y.len() / 2..].to_vec();
     let (r_rms, p_rms, e_rms) = (rms(&half(&refr)), rms(&half(&refp)), rms(&half(&emu)));
-    let (r_h, p_h, e_h) =
-        (harmonic_amplitude(&refr, 50.0, h), harmonic_amplitude(&refp, 50.0, h), harmonic_amplitude(&emu, 50.0, h));
+    let (r_h, p_h, e_h) = (
+        harmonic_amplitude(&refr, 50.0, h),
+        harmonic_amplitude(&refp, 50.0, h),
+        harmonic_amplitude(&emu, 50.0, h),
+    );
     eprintln!("RMS: ref {r_rms:.4} perturbed {p_rms:.4} emulator {e_rms:.4} V");
     eprintln!("50 Hz harmonic: ref {r_h:.4} perturbed {p_h:.4} emulator {e_h:.4} V");
     // The emulator must be as close to the reference as the reference is to itself under a
     // 1e-9 perturbation, with a floor of 2 % for the spread of a 2 s average.
     let tol_rms = 2.0 * ((p_rms - r_rms).abs() / r_rms).max(0.02);
     let tol_h = 2.0 * ((p_h - r_h).abs() / r_h).max(0.02);
-    assert!((e_rms - r_rms).abs() / r_rms <= tol_rms, "RMS {e_rms} vs {r_rms}");
+    assert!(
+        (e_rms - r_rms).abs() / r_rms <= tol_rms,
+        "RMS {e_rms} vs {r_rms}"
+    );
     assert!((e_h - r_h).abs() / r_h <= tol_h, "harmonic {e_h} vs {r_h}");
 }

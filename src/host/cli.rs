@@ -1,0 +1,229 @@
+//! The `geared-servo` command line (INTERFACES.md): argument definitions and the commands.
+//!
+//! Each command returns either a JSON value (printed alone on stdout with `--json`) together
+//! with a human summary, or a [`HostError`] that the binary maps to exit status 2 or 1.
+
+use crate::host::error::HostError;
+use crate::host::{params_file, record};
+use crate::{ActuatorParams, Plant, PlantState};
+use clap::{Parser, Subcommand};
+use serde_json::{json, Value};
+use std::path::PathBuf;
+
+/// Emulator of a DC-motor servo with a two-stage gear reducer and backlash.
+#[derive(Parser, Debug)]
+#[command(name = "geared-servo", version, about, long_about = None)]
+pub struct Cli {
+    /// Parameter file (TOML); default: the bundled reference actuator.
+    #[arg(long, global = true, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+    /// Print one JSON object on stdout and nothing else there.
+    #[arg(long, global = true)]
+    pub json: bool,
+    /// The command.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The commands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Derived quantities of a parameter set (closed form, no backlash).
+    Info,
+    /// Time-domain run on a voltage record, from rest.
+    Simulate {
+        /// Input CSV with `time_s` and `motor_voltage_v`.
+        #[arg(long, value_name = "IN.csv")]
+        input: PathBuf,
+        /// Output CSV.
+        #[arg(long, value_name = "OUT.csv")]
+        output: PathBuf,
+        /// Override the total backlash, degrees.
+        #[arg(long, value_name = "B")]
+        backlash_deg: Option<f64>,
+    },
+}
+
+/// What a command produced: the JSON object and the human-readable text.
+pub struct Report {
+    /// Printed with `--json`.
+    pub json: Value,
+    /// Printed otherwise.
+    pub text: String,
+}
+
+/// Loads `--params` and applies a `--backlash-deg` override, validating the result.
+pub fn load_params(
+    cli: &Cli,
+    backlash_deg: Option<f64>,
+) -> Result<(ActuatorParams, String), HostError> {
+    let name = cli
+        .params
+        .as_ref()
+        .map(|p| p.display().to_string())
+        .unwrap_or_else(|| params_file::REFERENCE_NAME.to_string());
+    let mut p = params_file::load(cli.params.as_deref())?;
+    if let Some(b) = backlash_deg {
+        p.backlash_deg = b;
+        params_file::validate(&p, "--backlash-deg").map_err(|e| {
+            HostError::input(e.message.replace("key `backlash.total_deg`", "value"))
+        })?;
+    }
+    Ok((p, name))
+}
+
+/// Runs the parsed command line.
+pub fn run(cli: &Cli) -> Result<Report, HostError> {
+    match &cli.command {
+        Command::Info => info(cli),
+        Command::Simulate {
+            input,
+            output,
+            backlash_deg,
+        } => simulate(cli, input, output, *backlash_deg),
+    }
+}
+
+fn info(cli: &Cli) -> Result<Report, HostError> {
+    let (p, name) = load_params(cli, None)?;
+    let d = p
+        .derived()
+        .map_err(|e| HostError::input(format!("{name}: key `{}` {}", e.field(), e.reason())))?;
+    let tau_e = p.motor.inductance_h / p.motor.resistance_ohm;
+    let json = json!({
+        "params": name,
+        "n_total": d.n_total,
+        "n_r": d.n_r,
+        "k1_nm_per_rad": d.k1_nm_per_rad,
+        "k2_nm_per_rad": d.k2_nm_per_rad,
+        "k_eq_nm_per_rad": d.k_eq_nm_per_rad,
+        "f_ar_hz": d.f_ar_hz,
+        "f_r_hz": d.f_r_hz,
+        "backlash_deg": p.backlash_deg,
+        "half_gap_rad": d.delta_rad,
+        "electrical_time_constant_s": tau_e,
+        "sample_period_s": p.sample_period_s,
+    });
+    let text = format!(
+        "parameters            {name}\n\
+         total ratio N         {:.6}\n\
+         revolution ratio N_r  {:.6}\n\
+         k1 (rotating shaft)   {:.6} N*m/rad\n\
+         k2 (load)             {:.6} N*m/rad\n\
+         k_eq (eq. 16)         {:.6} N*m/rad\n\
+         anti-resonance f_AR   {:.4} Hz (eq. 17a, no backlash)\n\
+         resonance f_R         {:.4} Hz (eq. 17b, no backlash)\n\
+         backlash b_t          {} deg (half gap {:.6e} rad)\n\
+         L/R                   {:.3e} s\n\
+         sample period         {} s",
+        d.n_total,
+        d.n_r,
+        d.k1_nm_per_rad,
+        d.k2_nm_per_rad,
+        d.k_eq_nm_per_rad,
+        d.f_ar_hz,
+        d.f_r_hz,
+        p.backlash_deg,
+        d.delta_rad,
+        tau_e,
+        p.sample_period_s
+    );
+    Ok(Report { json, text })
+}
+
+/// Columns `simulate` writes, after `time_s` and `motor_voltage_v`.
+pub const SIMULATE_COLUMNS: [&str; 8] = [
+    "tach_voltage_v",
+    "motor_speed_rad_s",
+    "load_angle_deg",
+    "current_a",
+    "load_speed_rad_s",
+    "transmitted_torque_nm",
+    "in_contact",
+    "mean_current_a",
+];
+
+/// Simulates `volts` (one per row, applied after that row's sample) from rest at period
+/// `dt`; returns the columns of [`SIMULATE_COLUMNS`], each `volts.len()` long.
+pub fn simulate_columns(
+    p: &ActuatorParams,
+    dt: f64,
+    volts: &[f64],
+) -> Result<Vec<Vec<f64>>, HostError> {
+    let mut p = *p;
+    p.sample_period_s = dt;
+    let plant = Plant::new(&p)
+        .map_err(|e| HostError::input(format!("key `{}` {}", e.field(), e.reason())))?;
+    let mut st = PlantState::REST;
+    let mut cols = vec![Vec::with_capacity(volts.len()); SIMULATE_COLUMNS.len()];
+    let mut o = plant.outputs(&st);
+    for &v in volts {
+        let row = [
+            o.tach_voltage_v,
+            o.motor_speed_rad_s,
+            o.load_angle_deg(),
+            o.current_a,
+            o.load_speed_rad_s,
+            o.transmitted_torque_nm,
+            if o.in_contact { 1.0 } else { 0.0 },
+            o.mean_current_a,
+        ];
+        for (c, x) in cols.iter_mut().zip(row) {
+            c.push(f64::from(x));
+        }
+        o = plant.step(&mut st, v as f32);
+    }
+    Ok(cols)
+}
+
+fn simulate(
+    cli: &Cli,
+    input: &PathBuf,
+    output: &PathBuf,
+    backlash: Option<f64>,
+) -> Result<Report, HostError> {
+    let (p, name) = load_params(cli, backlash)?;
+    let rec = record::read(input, false)?;
+    for w in &rec.warnings {
+        eprintln!("warning: {w}");
+    }
+    let mut pp = p;
+    pp.sample_period_s = rec.sample_period_s;
+    params_file::validate(
+        &pp,
+        &format!("{} (sample period of the record)", input.display()),
+    )?;
+    let cols = simulate_columns(&p, rec.sample_period_s, &rec.motor_voltage_v)?;
+    let mut columns: Vec<(&str, &[f64])> = vec![
+        ("time_s", &rec.time_s),
+        ("motor_voltage_v", &rec.motor_voltage_v),
+    ];
+    for (n, c) in SIMULATE_COLUMNS.iter().zip(cols.iter()) {
+        columns.push((n, c.as_slice()));
+    }
+    let comments = vec![
+        format!(
+            "generated by: geared-servo {} simulate",
+            env!("CARGO_PKG_VERSION")
+        ),
+        format!("params: {name}"),
+        format!("input: {}", input.display()),
+        format!("backlash_deg: {}", p.backlash_deg),
+        format!("sample_period_s: {}", rec.sample_period_s),
+    ];
+    record::write(output, &comments, &columns)?;
+    let json = json!({
+        "output": output.display().to_string(),
+        "rows": rec.len(),
+        "sample_period_s": rec.sample_period_s,
+        "backlash_deg": p.backlash_deg,
+    });
+    let text = format!(
+        "simulated {} rows at {:.6e} s ({}), wrote {}",
+        rec.len(),
+        rec.sample_period_s,
+        name,
+        output.display()
+    );
+    Ok(Report { json, text })
+}

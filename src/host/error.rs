@@ -1,0 +1,55 @@
+//! Errors of the host tool, split by exit status: bad input (2) or anything else (1).
+
+use std::fmt;
+
+/// Whether the user's input was at fault.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ErrorKind {
+    /// A file, key, column or argument is wrong: exit status 2.
+    BadInput,
+    /// Anything else (I/O on output, numerical failure): exit status 1.
+    Other,
+}
+
+/// A one-line error for the user. The message names the file, line, column or key.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct HostError {
+    /// Which exit status it maps to.
+    pub kind: ErrorKind,
+    /// The one-line reason.
+    pub message: String,
+}
+
+impl HostError {
+    /// Bad input (exit status 2).
+    pub fn input(message: impl Into<String>) -> HostError {
+        HostError {
+            kind: ErrorKind::BadInput,
+            message: message.into(),
+        }
+    }
+
+    /// Any other failure (exit status 1).
+    pub fn other(message: impl Into<String>) -> HostError {
+        HostError {
+            kind: ErrorKind::Other,
+            message: message.into(),
+        }
+    }
+
+    /// Process exit status for this error.
+    pub fn exit_code(&self) -> i32 {
+        match self.kind {
+            ErrorKind::BadInput => 2,
+            ErrorKind::Other => 1,
+        }
+    }
+}
+
+impl fmt::Display for HostError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for HostError {}

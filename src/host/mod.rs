@@ -1,0 +1,9 @@
+//! Host-only tools (feature `host`): parameter files, measured-data records and the
+//! `geared-servo` command-line program. Nothing here is used by `step()`.
+
+pub mod cli;
+pub mod error;
+pub mod params_file;
+pub mod record;
+
+pub use error::{ErrorKind, HostError};

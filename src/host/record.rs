@@ -1,0 +1,266 @@
+//! Measured-data records (CSV, INTERFACES.md "Measured data"): reading with errors that name
+//! the line and the column, and writing in the same convention.
+//!
+//! Row k: the outputs were sampled at `time_s[k]`, then `motor_voltage_v[k]` was applied
+//! until the next row. The first row's outputs are the initial state.
+
+use crate::host::error::HostError;
+use std::path::Path;
+
+/// Output columns a record may carry, in the canonical order.
+pub const OUTPUT_COLUMNS: [&str; 4] = [
+    "tach_voltage_v",
+    "load_angle_deg",
+    "motor_speed_rad_s",
+    "current_a",
+];
+
+/// A uniformly sampled record.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Record {
+    /// `# key: value` comment lines before the header, in order.
+    pub metadata: Vec<(String, String)>,
+    /// Sample instants, s.
+    pub time_s: Vec<f64>,
+    /// Mean sample period, s.
+    pub sample_period_s: f64,
+    /// Voltage applied from each row to the next, V.
+    pub motor_voltage_v: Vec<f64>,
+    /// Output columns present, by name (see [`OUTPUT_COLUMNS`]), each as long as `time_s`.
+    pub outputs: Vec<(String, Vec<f64>)>,
+    /// Non-fatal remarks (ignored columns), for stderr.
+    pub warnings: Vec<String>,
+}
+
+impl Record {
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.time_s.len()
+    }
+
+    /// Whether the record has no rows.
+    pub fn is_empty(&self) -> bool {
+        self.time_s.is_empty()
+    }
+
+    /// The output column `name`, if present.
+    pub fn output(&self, name: &str) -> Option<&[f64]> {
+        self.outputs
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_slice())
+    }
+
+    /// Metadata value for `key`, if a `# key: value` line gave one.
+    pub fn meta(&self, key: &str) -> Option<&str> {
+        self.metadata
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
+    }
+}
+
+/// Reads a record from a file. With `require_output`, at least one output column must be
+/// present (measured data); without it a voltage record is enough (`simulate`'s input).
+pub fn read(path: &Path, require_output: bool) -> Result<Record, HostError> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| HostError::input(format!("{name}: cannot read: {e}")))?;
+    parse(&text, &name, require_output)
+}
+
+/// Parses a record's text; `name` is used in messages.
+pub fn parse(text: &str, name: &str, require_output: bool) -> Result<Record, HostError> {
+    // Leading comment lines, then the CSV proper.
+    let mut metadata = Vec::new();
+    let mut offset = 0usize;
+    let mut skipped_lines = 0usize;
+    for line in text.split_inclusive('\n') {
+        let t = line.trim();
+        if let Some(c) = t.strip_prefix('#') {
+            if let Some((k, v)) = c.split_once(':') {
+                metadata.push((k.trim().to_string(), v.trim().to_string()));
+            }
+        } else if !t.is_empty() {
+            break;
+        }
+        offset += line.len();
+        skipped_lines += 1;
+    }
+    let body = text.get(offset..).unwrap_or("");
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .trim(csv::Trim::All)
+        .flexible(false)
+        .from_reader(body.as_bytes());
+    let headers = rdr
+        .headers()
+        .map_err(|e| {
+            HostError::input(format!(
+                "{name}: line {}: cannot read the header: {e}",
+                skipped_lines + 1
+            ))
+        })?
+        .clone();
+    if headers.is_empty() || (headers.len() == 1 && headers.get(0).is_some_and(str::is_empty)) {
+        return Err(HostError::input(format!("{name}: no header row")));
+    }
+    let col = |c: &str| headers.iter().position(|h| h == c);
+    let header_line = skipped_lines + 1;
+    let mut warnings = Vec::new();
+    let mut seen: Vec<&str> = Vec::new();
+    for h in headers.iter() {
+        if seen.contains(&h) {
+            return Err(HostError::input(format!(
+                "{name}: line {header_line}: column `{h}` appears twice"
+            )));
+        }
+        seen.push(h);
+        if h != "time_s" && h != "motor_voltage_v" && !OUTPUT_COLUMNS.contains(&h) {
+            warnings.push(format!("{name}: column `{h}` is not used and was ignored"));
+        }
+    }
+    let t_col = col("time_s").ok_or_else(|| {
+        HostError::input(format!(
+            "{name}: line {header_line}: missing required column `time_s`"
+        ))
+    })?;
+    let v_col = col("motor_voltage_v").ok_or_else(|| {
+        HostError::input(format!(
+            "{name}: line {header_line}: missing required column `motor_voltage_v`"
+        ))
+    })?;
+    let out_cols: Vec<(String, usize)> = OUTPUT_COLUMNS
+        .iter()
+        .filter_map(|c| col(c).map(|i| ((*c).to_string(), i)))
+        .collect();
+    if require_output && out_cols.is_empty() {
+        return Err(HostError::input(format!(
+            "{name}: line {header_line}: no output column (need at least one of {})",
+            OUTPUT_COLUMNS.join(", ")
+        )));
+    }
+
+    let mut time_s = Vec::new();
+    let mut volts = Vec::new();
+    let mut outs: Vec<Vec<f64>> = vec![Vec::new(); out_cols.len()];
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| {
+            let line = e
+                .position()
+                .map(|p| p.line() as usize + skipped_lines)
+                .unwrap_or(0);
+            let why = match e.kind() {
+                csv::ErrorKind::UnequalLengths {
+                    expected_len, len, ..
+                } => {
+                    format!("has {len} fields, the header has {expected_len}")
+                }
+                _ => e.to_string(),
+            };
+            HostError::input(format!("{name}: line {line}: {why}"))
+        })?;
+        let line = rec
+            .position()
+            .map(|p| p.line() as usize + skipped_lines)
+            .unwrap_or(0);
+        let field = |i: usize, cname: &str| -> Result<f64, HostError> {
+            let raw = rec.get(i).unwrap_or("");
+            if raw.is_empty() {
+                return Err(HostError::input(format!(
+                    "{name}: line {line}, column `{cname}`: empty field"
+                )));
+            }
+            let v: f64 = raw.parse().map_err(|_| {
+                HostError::input(format!(
+                    "{name}: line {line}, column `{cname}`: `{raw}` is not a number"
+                ))
+            })?;
+            if !v.is_finite() {
+                return Err(HostError::input(format!(
+                    "{name}: line {line}, column `{cname}`: `{raw}` is not finite"
+                )));
+            }
+            Ok(v)
+        };
+        let t = field(t_col, "time_s")?;
+        if let Some(&prev) = time_s.last() {
+            if t <= prev {
+                return Err(HostError::input(format!(
+                    "{name}: line {line}, column `time_s`: time {t} does not increase (previous row {prev})"
+                )));
+            }
+        }
+        time_s.push(t);
+        volts.push(field(v_col, "motor_voltage_v")?);
+        for ((cname, i), o) in out_cols.iter().zip(outs.iter_mut()) {
+            o.push(field(*i, cname)?);
+        }
+    }
+    if time_s.len() < 2 {
+        return Err(HostError::input(format!(
+            "{name}: needs at least two data rows, found {}",
+            time_s.len()
+        )));
+    }
+    let (first, last) = (
+        time_s.first().copied().unwrap_or(0.0),
+        time_s.last().copied().unwrap_or(0.0),
+    );
+    let dt = (last - first) / (time_s.len() - 1) as f64;
+    for (k, w) in time_s.windows(2).enumerate() {
+        let d = w[1] - w[0];
+        if (d - dt).abs() > 0.01 * dt {
+            let line = header_line + k + 2;
+            return Err(HostError::input(format!(
+                "{name}: line {line}, column `time_s`: sampling is not uniform (step {d:.6e} s against a mean of {dt:.6e} s; 1 % allowed)"
+            )));
+        }
+    }
+    Ok(Record {
+        metadata,
+        time_s,
+        sample_period_s: dt,
+        motor_voltage_v: volts,
+        outputs: out_cols.into_iter().map(|(n, _)| n).zip(outs).collect(),
+        warnings,
+    })
+}
+
+/// Writes columns as CSV: `comments` as leading `# ` lines, then the header and the rows.
+pub fn write(
+    path: &Path,
+    comments: &[String],
+    columns: &[(&str, &[f64])],
+) -> Result<(), HostError> {
+    use std::io::Write;
+    let name = path.display().to_string();
+    let file = std::fs::File::create(path)
+        .map_err(|e| HostError::other(format!("{name}: cannot create: {e}")))?;
+    let mut w = std::io::BufWriter::new(file);
+    let io = |e: std::io::Error| HostError::other(format!("{name}: write failed: {e}"));
+    for c in comments {
+        writeln!(w, "# {c}").map_err(io)?;
+    }
+    let header: Vec<&str> = columns.iter().map(|(n, _)| *n).collect();
+    writeln!(w, "{}", header.join(",")).map_err(io)?;
+    let rows = columns.iter().map(|(_, v)| v.len()).min().unwrap_or(0);
+    let mut line = String::new();
+    for k in 0..rows {
+        line.clear();
+        for (j, (_, v)) in columns.iter().enumerate() {
+            if j > 0 {
+                line.push(',');
+            }
+            let x = v.get(k).copied().unwrap_or(f64::NAN);
+            // Values that came from f32 print as the shortest f32 text, others as f64.
+            if f64::from(x as f32) == x {
+                line.push_str(&format!("{}", x as f32));
+            } else {
+                line.push_str(&format!("{x}"));
+            }
+        }
+        writeln!(w, "{line}").map_err(io)?;
+    }
+    w.flush().map_err(io)
+}
