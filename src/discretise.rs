@@ -10,13 +10,15 @@
 /// Dimension of the plant state.
 pub const N: usize = 5;
 
-/// A square `N × N` matrix, row major.
-pub type Mat = [[f64; N]; N];
+/// A square `N × N` matrix, row major (the plant's size by default).
+pub type Mat<const D: usize = N> = [[f64; D]; D];
 
-const ZERO: Mat = [[0.0; N]; N];
+fn zero<const D: usize>() -> Mat<D> {
+    [[0.0; D]; D]
+}
 
-fn identity() -> Mat {
-    let mut m = ZERO;
+fn identity<const D: usize>() -> Mat<D> {
+    let mut m = zero::<D>();
     for (i, row) in m.iter_mut().enumerate() {
         if let Some(v) = row.get_mut(i) {
             *v = 1.0;
@@ -25,8 +27,8 @@ fn identity() -> Mat {
     m
 }
 
-fn mul(a: &Mat, b: &Mat) -> Mat {
-    let mut c = ZERO;
+fn mul<const D: usize>(a: &Mat<D>, b: &Mat<D>) -> Mat<D> {
+    let mut c = zero::<D>();
     for (ci, ai) in c.iter_mut().zip(a.iter()) {
         for (k, aik) in ai.iter().enumerate() {
             if let Some(bk) = b.get(k) {
@@ -39,7 +41,7 @@ fn mul(a: &Mat, b: &Mat) -> Mat {
     c
 }
 
-fn add_scaled(a: &Mat, b: &Mat, s: f64) -> Mat {
+fn add_scaled<const D: usize>(a: &Mat<D>, b: &Mat<D>, s: f64) -> Mat<D> {
     let mut c = *a;
     for (ci, bi) in c.iter_mut().zip(b.iter()) {
         for (cij, bij) in ci.iter_mut().zip(bi.iter()) {
@@ -49,7 +51,7 @@ fn add_scaled(a: &Mat, b: &Mat, s: f64) -> Mat {
     c
 }
 
-fn norm_inf(a: &Mat) -> f64 {
+fn norm_inf<const D: usize>(a: &Mat<D>) -> f64 {
     a.iter()
         .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
         .fold(0.0, f64::max)
@@ -59,8 +61,8 @@ fn norm_inf(a: &Mat) -> f64 {
 ///
 /// `A` must be finite; the result is finite unless `A h` is so large that `e^{Ah}`
 /// overflows `f64` (callers check).
-pub fn exp_and_integral(a: &Mat, h: f64) -> (Mat, Mat) {
-    let mut z = ZERO;
+pub fn exp_and_integral<const D: usize>(a: &Mat<D>, h: f64) -> (Mat<D>, Mat<D>) {
+    let mut z = zero::<D>();
     for (zi, ai) in z.iter_mut().zip(a.iter()) {
         for (zij, aij) in zi.iter_mut().zip(ai.iter()) {
             *zij = aij * h;
@@ -98,17 +100,17 @@ pub fn exp_and_integral(a: &Mat, h: f64) -> (Mat, Mat) {
     for _ in 0..squarings {
         let e_plus_i = add_scaled(&e, &eye, 1.0);
         let p = mul(&phi, &e_plus_i);
-        phi = add_scaled(&ZERO, &p, 0.5);
+        phi = add_scaled(&zero::<D>(), &p, 0.5);
         e = mul(&e, &e);
     }
     // Ψ = h φ₁(A h)
-    let psi = add_scaled(&ZERO, &phi, h);
+    let psi = add_scaled(&zero::<D>(), &phi, h);
     (e, psi)
 }
 
 /// `Ψ b` for a column `b`.
-pub fn apply(psi: &Mat, b: &[f64; N]) -> [f64; N] {
-    let mut out = [0.0; N];
+pub fn apply<const D: usize>(psi: &Mat<D>, b: &[f64; D]) -> [f64; D] {
+    let mut out = [0.0; D];
     for (o, row) in out.iter_mut().zip(psi.iter()) {
         *o = row.iter().zip(b.iter()).map(|(p, bj)| p * bj).sum();
     }
@@ -123,7 +125,7 @@ mod tests {
     fn exponential_of_a_harmonic_oscillator_is_a_rotation() {
         // ẍ = −ω² x as [x, v]: e^{Ah} = [[cos, sin/ω], [−ω sin, cos]].
         let w = 800.0;
-        let mut a = ZERO;
+        let mut a: Mat = zero();
         a[0][1] = 1.0;
         a[1][0] = -w * w;
         let h = 0.0005;
@@ -141,7 +143,7 @@ mod tests {
     fn integral_of_a_stiff_decay_is_exact() {
         // ẋ = −λ x with λ h = 20 (the motor's electrical mode at the 0.5 ms step).
         let lam = 40_625.0;
-        let mut a = ZERO;
+        let mut a: Mat = zero();
         a[0][0] = -lam;
         let h = 0.0005;
         let (e, psi) = exp_and_integral(&a, h);
@@ -152,7 +154,7 @@ mod tests {
 
     #[test]
     fn pure_integrator_gives_the_step_length() {
-        let mut a = ZERO;
+        let mut a: Mat = zero();
         a[4][2] = 1.0; // θ̇ = ω
         let (e, psi) = exp_and_integral(&a, 0.25);
         assert_eq!(e[4][2], 0.25);

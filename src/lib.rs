@@ -22,7 +22,7 @@ pub use params::{
     ActuatorParams, Derived, Effects, GearTrain, LoadParams, MotorParams, Shaft, Stiffness,
     ToothGeometry, REFERENCE,
 };
-pub use plant::{Outputs, Plant, PlantState};
+pub use plant::{Outputs, Plant, PlantState, SineDrive};
 
 #[cfg(feature = "host")]
 pub mod host;

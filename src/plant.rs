@@ -199,17 +199,48 @@ struct ModeSet {
     tau: f32,
 }
 
-impl ModeSet {
+impl Mode {
+    /// Index into the six modes with dynamics; `None` when both bodies are stuck.
     #[inline(always)]
-    fn get(&self, m: &Mode) -> &Transition {
-        let c = m.gear != 0;
-        match (c, m.motor, m.load) {
-            (false, Motion::Slip(_), Motion::Slip(_)) => &self.modes[0],
-            (false, Motion::Stuck, _) => &self.modes[1],
-            (false, _, Motion::Stuck) => &self.modes[2],
-            (true, Motion::Slip(_), Motion::Slip(_)) => &self.modes[3],
-            (true, Motion::Stuck, _) => &self.modes[4],
-            (true, _, Motion::Stuck) => &self.modes[5],
+    fn index(&self) -> Option<usize> {
+        let c = if self.gear != 0 { 3 } else { 0 };
+        match (self.motor, self.load) {
+            (Motion::Slip(_), Motion::Slip(_)) => Some(c),
+            (Motion::Stuck, Motion::Slip(_)) => Some(c + 1),
+            (Motion::Slip(_), Motion::Stuck) => Some(c + 2),
+            (Motion::Stuck, Motion::Stuck) => None,
+        }
+    }
+}
+
+/// Voltage input over one (sub-)step.
+#[derive(Clone, Copy)]
+struct Input<'a> {
+    /// Weight of the held-voltage column Γ_V, V.
+    v: f32,
+    /// Voltage used by the closed forms (both bodies stuck, motor breakaway), V: the held
+    /// voltage, or the mid-step value of a sine.
+    v_eff: f32,
+    extra: Extra<'a>,
+}
+
+/// Voltage columns beyond the held one.
+#[derive(Clone, Copy)]
+enum Extra<'a> {
+    None,
+    /// Per-mode column of the late part of a step split by a fractional delay, and the
+    /// voltage change at the split, V.
+    Late(&'a [Vec5; 6], f32),
+    /// Per-mode responses to cos ωτ and sin ωτ over the step, and their amplitudes, V.
+    Sine(&'a [[Vec5; 2]; 6], f32, f32),
+}
+
+impl<'a> Input<'a> {
+    fn held(v: f32) -> Input<'a> {
+        Input {
+            v,
+            v_eff: v,
+            extra: Extra::None,
         }
     }
 }
@@ -334,6 +365,10 @@ fn transition(a: &Mat, b: &[[f64; 5]; 3], tau: f64) -> Result<Transition, ParamE
     Ok(t)
 }
 
+/// Index of the mode "in the gap, motor stuck, load sliding" (its current row serves the
+/// both-stuck case).
+const MOTOR_STUCK: usize = 1;
+
 const MODE_FLAGS: [(bool, bool, bool); 6] = [
     (false, true, true),
     (false, false, true),
@@ -452,6 +487,48 @@ impl Plant {
         let v_mean = v_early * self.delay_frac + v_late * (1.0 - self.delay_frac);
         let mut out = self.outputs(state);
         out.applied_voltage_v = v_late;
+        out.mean_current_a = self.mean_current(&s0, &s1, v_mean);
+        out
+    }
+
+    /// Applies the continuous voltage `amplitude_v · sin(phase_rad + ω τ)` over one step
+    /// (τ from the step's start, ω the drive's frequency) and returns the outputs at its end.
+    /// The caller advances `phase_rad` by [`SineDrive::phase_step_rad`] each step.
+    ///
+    /// `effects.input_delay` shifts the phase (exact for a sine). A sine whose amplitude
+    /// exceeds the voltage limit is not a sine at the winding: that step falls back to the
+    /// held, saturated mid-step value. NaN is taken as 0 V. `applied_voltage_v` reports the
+    /// mid-step value.
+    pub fn step_sine(
+        &self,
+        state: &mut PlantState,
+        drive: &SineDrive,
+        amplitude_v: f32,
+        phase_rad: f32,
+    ) -> Outputs {
+        let (sn, cs) = math::sin_cos(phase_rad - drive.delay_phase);
+        let a = if amplitude_v == amplitude_v {
+            amplitude_v
+        } else {
+            0.0
+        };
+        let (a_cos, a_sin) = (a * sn, a * cs);
+        let v_mid = a_cos * drive.half_full[0] + a_sin * drive.half_full[1];
+        if !(abs(a) <= self.v_max) {
+            return self.step(state, v_mid);
+        }
+        let s0 = state.vec();
+        let s1 = self.advance_step_sine(&s0, drive, a_cos, a_sin);
+        state.set(&s1);
+        // Exact mean of the sine over the step.
+        let [c1, s1r] = drive.rot_full;
+        let v_mean = if drive.omega_h > 0.0 {
+            (a_cos * s1r + a_sin * (1.0 - c1)) / drive.omega_h
+        } else {
+            a_cos
+        };
+        let mut out = self.outputs(state);
+        out.applied_voltage_v = v_mid;
         out.mean_current_a = self.mean_current(&s0, &s1, v_mean);
         out
     }
@@ -619,100 +696,87 @@ impl Plant {
         (fm + kd / self.n, fl - kd)
     }
 
-    /// Exact advance within one mode over the set's step, with voltage `v` (and
-    /// `v_late` from the split point of a fractional delay when `late` is given).
+    /// Exact advance within one mode over the set's step with input `inp`.
     #[inline(always)]
-    fn advance(
-        &self,
-        set: &ModeSet,
-        m: &Mode,
-        s: &Vec5,
-        v: f32,
-        late: Option<(&Vec5, f32)>,
-    ) -> Vec5 {
-        let mut out = s.map(|_| 0.0);
-        if let (Motion::Stuck, Motion::Stuck) = (m.motor, m.load) {
-            let i_inf = v / self.r;
-            out = *s;
-            out[I] = i_inf + (s[I] - i_inf) * set.decay;
+    fn advance(&self, set: &ModeSet, m: &Mode, s: &Vec5, inp: &Input) -> Vec5 {
+        let Some(idx) = m.index() else {
+            // Both bodies stuck: only the current moves. Its row in a motor-stuck mode is
+            // exactly that (no back-EMF), with every voltage column.
+            let t = set.modes.get(MOTOR_STUCK).unwrap_or(&NO_TRANSITION);
+            let mut i = t.phi[I][I] * s[I] + t.gamma[I][0] * inp.v;
+            match inp.extra {
+                Extra::None => {}
+                Extra::Late(cols, dv) => i += cols.get(MOTOR_STUCK).map_or(0.0, |c| c[I]) * dv,
+                Extra::Sine(cols, a_cos, a_sin) => {
+                    if let Some([gc, gs]) = cols.get(MOTOR_STUCK) {
+                        i += gc[I] * a_cos + gs[I] * a_sin;
+                    }
+                }
+            }
+            let mut out = *s;
+            out[I] = i;
             out[WM] = 0.0;
             out[WL] = 0.0;
-        } else {
-            let t = set.get(m);
-            let (tm, tl) = self.forcing(m);
-            for ((o, row), g) in out.iter_mut().zip(t.phi.iter()).zip(t.gamma.iter()) {
-                *o = row[0] * s[0]
-                    + row[1] * s[1]
-                    + row[2] * s[2]
-                    + row[3] * s[3]
-                    + row[4] * s[4]
-                    + g[0] * v
-                    + g[1] * tm
-                    + g[2] * tl;
+            return out;
+        };
+        let t = set.modes.get(idx).unwrap_or(&NO_TRANSITION);
+        let (tm, tl) = self.forcing(m);
+        let v = inp.v;
+        let mut out = s.map(|_| 0.0);
+        for ((o, row), g) in out.iter_mut().zip(t.phi.iter()).zip(t.gamma.iter()) {
+            *o = row[0] * s[0]
+                + row[1] * s[1]
+                + row[2] * s[2]
+                + row[3] * s[3]
+                + row[4] * s[4]
+                + g[0] * v
+                + g[1] * tm
+                + g[2] * tl;
+        }
+        match inp.extra {
+            Extra::None => {}
+            Extra::Late(cols, dv) => {
+                if let Some(col) = cols.get(idx) {
+                    for (o, c) in out.iter_mut().zip(col.iter()) {
+                        *o += c * dv;
+                    }
+                }
             }
-            if let Motion::Stuck = m.motor {
-                out[WM] = 0.0;
-            }
-            if let Motion::Stuck = m.load {
-                out[WL] = 0.0;
+            Extra::Sine(cols, a_cos, a_sin) => {
+                if let Some([gc, gs]) = cols.get(idx) {
+                    for ((o, c), sn) in out.iter_mut().zip(gc.iter()).zip(gs.iter()) {
+                        *o += c * a_cos + sn * a_sin;
+                    }
+                }
             }
         }
-        if let Some((col, dv)) = late {
-            for (o, c) in out.iter_mut().zip(col.iter()) {
-                *o += c * dv;
-            }
-            if let Motion::Stuck = m.motor {
-                out[WM] = 0.0;
-            }
-            if let Motion::Stuck = m.load {
-                out[WL] = 0.0;
-            }
+        if let Motion::Stuck = m.motor {
+            out[WM] = 0.0;
+        }
+        if let Motion::Stuck = m.load {
+            out[WL] = 0.0;
         }
         out
     }
 
-    fn late_column(&self, m: &Mode) -> &Vec5 {
-        let c = m.gear != 0;
-        let idx = match (c, m.motor, m.load) {
-            (false, Motion::Slip(_), Motion::Slip(_)) => 0,
-            (false, Motion::Stuck, _) => 1,
-            (false, _, Motion::Stuck) => 2,
-            (true, Motion::Slip(_), Motion::Slip(_)) => 3,
-            (true, Motion::Stuck, _) => 4,
-            (true, _, Motion::Stuck) => 5,
-        };
-        // Both stuck: the current's closed form below handles the split itself.
-        self.late_v.get(idx).unwrap_or(&[0.0; 5])
-    }
-
+    /// One held-voltage step: `v_early` over the first `delay_frac` of it, `v_late` after.
     fn advance_step(&self, s0: &Vec5, v_early: f32, v_late: f32) -> Vec5 {
         let m = self.mode_at(s0);
         let split = self.delay_frac > 0.0;
         let s1 = if split {
-            let both_stuck = matches!((m.motor, m.load), (Motion::Stuck, Motion::Stuck));
-            if both_stuck {
-                // i(h) with V_early over f h then V_late: two closed-form decays.
-                let f = self.delay_frac;
-                let mut s = *s0;
-                let e1 = math::exp(-f * self.h / self.tau_e);
-                let e2 = self.full.decay / e1;
-                let ie = v_early / self.r;
-                let il = v_late / self.r;
-                let i_mid = ie + (s[I] - ie) * e1;
-                s[I] = il + (i_mid - il) * e2;
-                s
-            } else {
-                let col = *self.late_column(&m);
-                self.advance(&self.full, &m, s0, v_early, Some((&col, v_late - v_early)))
-            }
+            let inp = Input {
+                v: v_early,
+                v_eff: v_late,
+                extra: Extra::Late(&self.late_v, v_late - v_early),
+            };
+            self.advance(&self.full, &m, s0, &inp)
         } else {
-            self.advance(&self.full, &m, s0, v_late, None)
+            self.advance(&self.full, &m, s0, &Input::held(v_late))
         };
         if self.consistent(&m, s0, &s1) {
             return s1;
         }
         let mut s = *s0;
-        let hs = self.sub.tau;
         for j in 0..SUB_STEPS {
             // Voltage over this sub-step: the time-weighted mean where the delay's split
             // point falls inside it.
@@ -731,7 +795,38 @@ impl Plant {
             } else {
                 v_late
             };
-            s = self.sub_step(&s, v, hs);
+            s = self.sub_step(&s, &Input::held(v));
+        }
+        s
+    }
+
+    /// One step under the sinusoidal voltage `a_cos cos ωτ + a_sin sin ωτ`, τ from the
+    /// step's start.
+    fn advance_step_sine(&self, s0: &Vec5, d: &SineDrive, a_cos: f32, a_sin: f32) -> Vec5 {
+        let m = self.mode_at(s0);
+        let v_mid = a_cos * d.half_full[0] + a_sin * d.half_full[1];
+        let inp = Input {
+            v: 0.0,
+            v_eff: v_mid,
+            extra: Extra::Sine(&d.full, a_cos, a_sin),
+        };
+        let s1 = self.advance(&self.full, &m, s0, &inp);
+        if self.consistent(&m, s0, &s1) {
+            return s1;
+        }
+        let mut s = *s0;
+        let (mut c, mut sn) = (a_cos, a_sin);
+        let [cr, sr] = d.rot_sub;
+        for _ in 0..SUB_STEPS {
+            let v_mid = c * d.half_sub[0] + sn * d.half_sub[1];
+            let inp = Input {
+                v: 0.0,
+                v_eff: v_mid,
+                extra: Extra::Sine(&d.sub, c, sn),
+            };
+            s = self.sub_step(&s, &inp);
+            // Move the phase origin to the next sub-step's start.
+            (c, sn) = (c * cr + sn * sr, sn * cr - c * sr);
         }
         s
     }
@@ -778,9 +873,11 @@ impl Plant {
     }
 
     /// One exact sub-step with event location and impulse correction.
-    fn sub_step(&self, s0: &Vec5, v: f32, hs: f32) -> Vec5 {
+    fn sub_step(&self, s0: &Vec5, inp: &Input) -> Vec5 {
+        let hs = self.sub.tau;
+        let v = inp.v_eff;
         let m = self.mode_at(s0);
-        let mut s1 = self.advance(&self.sub, &m, s0, v, None);
+        let mut s1 = self.advance(&self.sub, &m, s0, inp);
         let motor_free = !matches!(m.motor, Motion::Stuck);
         let load_free = !matches!(m.load, Motion::Stuck);
 
@@ -964,6 +1061,104 @@ impl Plant {
         };
         let w = sg * impulse / self.jm;
         (w, w * tau * 0.5)
+    }
+}
+
+/// Exact response of every mode to a continuous sinusoidal voltage at one frequency, for
+/// [`Plant::step_sine`].
+///
+/// A stepped-sine frequency response driven through the zero-order hold measures the
+/// sampled, held system: its notch sits about 1 Hz above the closed-form anti-resonance of
+/// the reference actuator (aliasing of the hold's images). The paper's simulation drives a
+/// continuous sine and samples the output; this drive does the same, exactly: the sine is
+/// generated by an oscillator appended to each mode's state and the augmented system is
+/// discretised like the rest. Build it from the same parameters as the plant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SineDrive {
+    /// Per mode: responses over a step to cos ωτ and sin ωτ (unit amplitude).
+    full: [[Vec5; 2]; 6],
+    /// The same over a sub-step.
+    sub: [[Vec5; 2]; 6],
+    /// cos and sin of ω h_sub.
+    rot_sub: [f32; 2],
+    /// cos and sin of ω h_sub / 2.
+    half_sub: [f32; 2],
+    /// cos and sin of ω h / 2.
+    half_full: [f32; 2],
+    /// cos and sin of ω h.
+    rot_full: [f32; 2],
+    /// ω · input_delay, rad.
+    delay_phase: f32,
+    /// ω h, rad.
+    omega_h: f32,
+    /// Frequency, Hz.
+    freq_hz: f32,
+}
+
+impl SineDrive {
+    /// Precomputes the drive at `freq_hz` (Hz, finite and > 0) for the plant built from
+    /// `params`. Twelve exponentials of a 7 × 7 matrix: do it once per frequency.
+    pub fn new(params: &ActuatorParams, freq_hz: f64) -> Result<SineDrive, ParamError> {
+        if !freq_hz.is_finite() {
+            return Err(ParamError::NonFinite("sine.freq_hz"));
+        }
+        if freq_hz <= 0.0 {
+            return Err(ParamError::NonPositive("sine.freq_hz"));
+        }
+        let d = params.derived()?;
+        let h = params.sample_period_s;
+        let w = 2.0 * core::f64::consts::PI * freq_hz;
+        let columns = |tau: f64| -> Result<[[Vec5; 2]; 6], ParamError> {
+            let mut out = [[[0.0f32; 5]; 2]; 6];
+            for (slot, &(contact, mf, lf)) in out.iter_mut().zip(MODE_FLAGS.iter()) {
+                let (a, b) = continuous(params, d.n_total, d.k_eq_nm_per_rad, contact, mf, lf);
+                // [s; c; q]' = [[A, B_V c], …]: c = cos ωτ, q = sin ωτ from (c, q) = (1, 0).
+                let mut aug = [[0.0f64; 7]; 7];
+                for (ar, row) in aug.iter_mut().zip(a.iter()) {
+                    for (av, v) in ar.iter_mut().zip(row.iter()) {
+                        *av = *v;
+                    }
+                }
+                for (ar, bv) in aug.iter_mut().zip(b[0].iter()) {
+                    ar[5] = *bv;
+                }
+                aug[5][6] = -w;
+                aug[6][5] = w;
+                let (e, _) = discretise::exp_and_integral(&aug, tau);
+                // Column 5: input cos ωτ. Column 6 starts the oscillator at (0, 1), whose
+                // c component is −sin ωτ.
+                let [gc, gs] = slot;
+                for ((c, sn), row) in gc.iter_mut().zip(gs.iter_mut()).zip(e.iter()) {
+                    *c = to_f32(row[5], "sine.freq_hz")?;
+                    *sn = to_f32(-row[6], "sine.freq_hz")?;
+                }
+            }
+            Ok(out)
+        };
+        let hs = h / SUB_STEPS as f64;
+        let cs = |x: f64| [libm::cos(x) as f32, libm::sin(x) as f32];
+        Ok(SineDrive {
+            full: columns(h)?,
+            sub: columns(hs)?,
+            rot_sub: cs(w * hs),
+            half_sub: cs(0.5 * w * hs),
+            half_full: cs(0.5 * w * h),
+            rot_full: cs(w * h),
+            delay_phase: (w * params.effects.input_delay) as f32,
+            omega_h: (w * h) as f32,
+            freq_hz: freq_hz as f32,
+        })
+    }
+
+    /// Frequency, Hz.
+    pub fn frequency_hz(&self) -> f32 {
+        self.freq_hz
+    }
+
+    /// Phase advance per sample period ω h, rad.
+    pub fn phase_step_rad(&self) -> f32 {
+        self.omega_h
     }
 }
 

@@ -130,8 +130,15 @@ impl Reference {
     }
 
     fn rk4(&mut self, v: f64) {
+        self.rk4_fn(&|_| v, 0.0);
+    }
+
+    /// One RK4 step with the voltage a function of time since `t0` (the step's start).
+    fn rk4_fn(&mut self, v_of: &dyn Fn(f64) -> f64, t0: f64) {
         let h = self.h;
         let s = self.s;
+        let vmax = self.vmax;
+        let v = |t: f64| v_of(t).clamp(-vmax, vmax);
         let add = |a: &[f64; 5], b: &[f64; 5], c: f64| {
             let mut o = *a;
             for (oi, bi) in o.iter_mut().zip(b) {
@@ -139,10 +146,10 @@ impl Reference {
             }
             o
         };
-        let k1 = self.deriv(&s, v);
-        let k2 = self.deriv(&add(&s, &k1, h / 2.0), v);
-        let k3 = self.deriv(&add(&s, &k2, h / 2.0), v);
-        let k4 = self.deriv(&add(&s, &k3, h), v);
+        let k1 = self.deriv(&s, v(t0));
+        let k2 = self.deriv(&add(&s, &k1, h / 2.0), v(t0 + h / 2.0));
+        let k3 = self.deriv(&add(&s, &k2, h / 2.0), v(t0 + h / 2.0));
+        let k4 = self.deriv(&add(&s, &k3, h), v(t0 + h));
         let mut n = s;
         for j in 0..5 {
             n[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
@@ -179,6 +186,14 @@ impl Reference {
         let v = v.clamp(-self.vmax, self.vmax);
         for _ in 0..self.substeps {
             self.rk4(v);
+        }
+    }
+
+    /// Applies the continuous voltage `v_of(t)` (t in s from the start of this sample
+    /// period) for one sample period.
+    pub fn step_fn(&mut self, v_of: &dyn Fn(f64) -> f64) {
+        for j in 0..self.substeps {
+            self.rk4_fn(v_of, j as f64 * self.h);
         }
     }
 
