@@ -414,7 +414,7 @@ impl ActuatorParams {
             return Err(ParamError::OutOfRange("effects.input_delay"));
         }
         non_negative(e.voltage_limit, "effects.voltage_limit")?;
-        if !(finite(e.tach_gain, "effects.tach_gain")? > -1.0) {
+        if finite(e.tach_gain, "effects.tach_gain")? <= -1.0 {
             return Err(ParamError::OutOfRange("effects.tach_gain"));
         }
 

@@ -263,6 +263,9 @@ pub struct Plant {
     jm: f32,
     jl: f32,
     n: f32,
+    inv_n: f32,
+    /// 1 / (R h), for the mean current.
+    inv_rh: f32,
     k: f32,
     c_mesh: f32,
     k_hinge: f32,
@@ -441,6 +444,8 @@ impl Plant {
             jm: to_f32(m.inertia_kg_m2, "motor.inertia_kg_m2")?,
             jl: to_f32(params.load.inertia_kg_m2, "load.inertia_kg_m2")?,
             n: d.n_total as f32,
+            inv_n: (1.0 / d.n_total) as f32,
+            inv_rh: to_f32(1.0 / (m.resistance_ohm * h), "motor.resistance_ohm")?,
             k: to_f32(d.k_eq_nm_per_rad, "stiffness.k2_nm_per_rad")?,
             c_mesh: to_f32(params.effects.mesh_damping, "effects.mesh_damping")?,
             k_hinge: to_f32(params.effects.hinge_stiffness, "effects.hinge_stiffness")?,
@@ -507,14 +512,12 @@ impl Plant {
         phase_rad: f32,
     ) -> Outputs {
         let (sn, cs) = math::sin_cos(phase_rad - drive.delay_phase);
-        let a = if amplitude_v == amplitude_v {
-            amplitude_v
-        } else {
-            0.0
-        };
-        let (a_cos, a_sin) = (a * sn, a * cs);
+        let (a_cos, a_sin) = (amplitude_v * sn, amplitude_v * cs);
         let v_mid = a_cos * drive.half_full[0] + a_sin * drive.half_full[1];
-        if !(abs(a) <= self.v_max) {
+        // Non-finite amplitude or phase, or a sine beyond the limit: the held path handles it
+        // (NaN as 0 V, saturation).
+        let usable = v_mid.is_finite() && abs(amplitude_v) <= self.v_max;
+        if !usable {
             return self.step(state, v_mid);
         }
         let s0 = state.vec();
@@ -579,10 +582,10 @@ impl Plant {
             self.v_max
         } else if v < -self.v_max {
             -self.v_max
-        } else if v == v {
-            v
+        } else if v.is_nan() {
+            0.0
         } else {
-            0.0 // NaN
+            v
         }
     }
 
@@ -610,7 +613,7 @@ impl Plant {
     fn mean_current(&self, s0: &Vec5, s1: &Vec5, v: f32) -> f32 {
         // ∫ i dt over the step from the winding equation: (V h − k_b Δθm − L Δi) / R.
         let d_theta_m = self.n * ((s1[X] - s0[X]) + (s1[TH] - s0[TH]));
-        (v * self.h - self.kb * d_theta_m - self.l * (s1[I] - s0[I])) / (self.r * self.h)
+        (v * self.h - self.kb * d_theta_m - self.l * (s1[I] - s0[I])) * self.inv_rh
     }
 
     #[inline(always)]
@@ -630,7 +633,7 @@ impl Plant {
             0.0
         } else {
             let edge = if gear > 0 { self.delta } else { -self.delta };
-            self.k * (s[X] - edge) + self.c_mesh * (s[WM] / self.n - s[WL])
+            self.k * (s[X] - edge) + self.c_mesh * (s[WM] * self.inv_n - s[WL])
         }
     }
 
@@ -638,7 +641,7 @@ impl Plant {
     /// the instants this is used: at rest or at a velocity reversal).
     #[inline(always)]
     fn motor_drive(&self, s: &Vec5) -> f32 {
-        self.kt * s[I] - self.transmitted(s, self.gear_of(s[X])) / self.n
+        self.kt * s[I] - self.transmitted(s, self.gear_of(s[X])) * self.inv_n
     }
 
     #[inline(always)]
@@ -693,7 +696,7 @@ impl Plant {
             Motion::Slip(sg) => -sg * self.tf_l,
             Motion::Stuck => 0.0,
         };
-        (fm + kd / self.n, fl - kd)
+        (fm + kd * self.inv_n, fl - kd)
     }
 
     /// Exact advance within one mode over the set's step with input `inp`.
@@ -724,14 +727,9 @@ impl Plant {
         let v = inp.v;
         let mut out = s.map(|_| 0.0);
         for ((o, row), g) in out.iter_mut().zip(t.phi.iter()).zip(t.gamma.iter()) {
-            *o = row[0] * s[0]
-                + row[1] * s[1]
-                + row[2] * s[2]
-                + row[3] * s[3]
-                + row[4] * s[4]
-                + g[0] * v
-                + g[1] * tm
-                + g[2] * tl;
+            // Balanced sum: short dependency chains, and still exactly odd in (s, v, τ).
+            *o = ((row[0] * s[0] + row[1] * s[1]) + (row[2] * s[2] + row[3] * s[3]))
+                + ((row[4] * s[4] + g[0] * v) + (g[1] * tm + g[2] * tl));
         }
         match inp.extra {
             Extra::None => {}
@@ -852,8 +850,8 @@ impl Plant {
     /// cubic Hermite interpolant of x (ends and slopes) is checked at its turning point.
     #[inline(always)]
     fn grazes(&self, gear: i8, s0: &Vec5, s1: &Vec5) -> bool {
-        let m0 = (s0[WM] / self.n - s0[WL]) * self.h;
-        let m1 = (s1[WM] / self.n - s1[WL]) * self.h;
+        let m0 = (s0[WM] * self.inv_n - s0[WL]) * self.h;
+        let m1 = (s1[WM] * self.inv_n - s1[WL]) * self.h;
         let turning = (m0 > 0.0 && m1 < 0.0) || (m0 < 0.0 && m1 > 0.0);
         if !turning {
             return false;
@@ -1051,7 +1049,7 @@ impl Plant {
             }
         };
         let tau = hs - t_star;
-        if !(tau > 0.0) {
+        if tau.is_nan() || tau <= 0.0 {
             return (0.0, 0.0);
         }
         let impulse = if b != 0.0 && a > self.tf_m {

@@ -161,22 +161,22 @@ impl Reference {
             if dm.abs() > self.tfm {
                 self.stuck_m = false;
             }
-        } else if (s[2] > 0.0 && n[2] <= 0.0) || (s[2] < 0.0 && n[2] >= 0.0) {
-            if dm.abs() <= self.tfm {
-                self.stuck_m = true;
-                n[2] = 0.0;
-            }
+        } else if ((s[2] > 0.0 && n[2] <= 0.0) || (s[2] < 0.0 && n[2] >= 0.0))
+            && dm.abs() <= self.tfm
+        {
+            self.stuck_m = true;
+            n[2] = 0.0;
         }
         if self.stuck_l {
             n[4] = 0.0;
             if dl.abs() > self.tfl {
                 self.stuck_l = false;
             }
-        } else if (s[4] > 0.0 && n[4] <= 0.0) || (s[4] < 0.0 && n[4] >= 0.0) {
-            if dl.abs() <= self.tfl {
-                self.stuck_l = true;
-                n[4] = 0.0;
-            }
+        } else if ((s[4] > 0.0 && n[4] <= 0.0) || (s[4] < 0.0 && n[4] >= 0.0))
+            && dl.abs() <= self.tfl
+        {
+            self.stuck_l = true;
+            n[4] = 0.0;
         }
         self.s = n;
     }
@@ -263,8 +263,9 @@ fn solve3(mut m: [[f64; 3]; 3], mut r: [f64; 3]) -> [f64; 3] {
         r.swap(c, p);
         for row in (c + 1)..3 {
             let f = m[row][c] / m[c][c];
-            for j in c..3 {
-                m[row][j] -= f * m[c][j];
+            let pivot = m[c];
+            for (mj, pj) in m[row].iter_mut().zip(pivot.iter()).skip(c) {
+                *mj -= f * pj;
             }
             r[row] -= f * r[c];
         }
@@ -272,8 +273,8 @@ fn solve3(mut m: [[f64; 3]; 3], mut r: [f64; 3]) -> [f64; 3] {
     let mut x = [0.0; 3];
     for c in (0..3).rev() {
         let mut acc = r[c];
-        for j in (c + 1)..3 {
-            acc -= m[c][j] * x[j];
+        for (mj, xj) in m[c].iter().zip(x.iter()).skip(c + 1) {
+            acc -= mj * xj;
         }
         x[c] = acc / m[c][c];
     }

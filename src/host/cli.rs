@@ -8,7 +8,7 @@ use crate::host::{params_file, record};
 use crate::{ActuatorParams, Plant, PlantState};
 use clap::{Parser, Subcommand};
 use serde_json::{json, Value};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Emulator of a DC-motor servo with a two-stage gear reducer and backlash.
 #[derive(Parser, Debug)]
@@ -178,8 +178,8 @@ pub fn simulate_columns(
 
 fn simulate(
     cli: &Cli,
-    input: &PathBuf,
-    output: &PathBuf,
+    input: &Path,
+    output: &Path,
     backlash: Option<f64>,
 ) -> Result<Report, HostError> {
     let (p, name) = load_params(cli, backlash)?;

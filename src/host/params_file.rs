@@ -278,7 +278,13 @@ fn toml_message(name: &str, text: &str, e: &toml::de::Error) -> String {
         .next()
         .unwrap_or("")
         .trim();
-    let table = if here.starts_with('[') {
+    // A header starts its line; `[1]` in a value does not.
+    let at_line_start = before
+        .rsplit('\n')
+        .next()
+        .is_some_and(|l| l.trim().is_empty());
+    let header_here = at_line_start && here.starts_with('[');
+    let table = if header_here {
         Some(
             here.trim_matches(|c| c == '[' || c == ']')
                 .trim()
@@ -303,7 +309,7 @@ fn toml_message(name: &str, text: &str, e: &toml::de::Error) -> String {
         _ => k.to_string(),
     };
     let what = if let Some(k) = quoted("missing field `") {
-        if here.starts_with('[') || table.is_some() {
+        if header_here || table.is_some() {
             format!("missing key `{}`", keyed(&k))
         } else {
             top_level(&msg)

@@ -208,8 +208,9 @@ pub fn parse(text: &str, name: &str, require_output: bool) -> Result<Record, Hos
         time_s.last().copied().unwrap_or(0.0),
     );
     let dt = (last - first) / (time_s.len() - 1) as f64;
-    for (k, w) in time_s.windows(2).enumerate() {
-        let d = w[1] - w[0];
+    for (k, pair) in time_s.windows(2).enumerate() {
+        let [a, b] = pair else { continue };
+        let d = b - a;
         if (d - dt).abs() > 0.01 * dt {
             let line = header_line + k + 2;
             return Err(HostError::input(format!(
