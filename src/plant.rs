@@ -176,17 +176,20 @@ struct Mode {
 }
 
 /// Exact transition of one mode over one (sub-)step: `s' = Φ s + Γ [V, τ_m, τ_L]`, with
-/// τ_m, τ_L constant torques on the motor and the load.
+/// τ_m, τ_L constant torques on the motor and the load. Stored by columns (`cols[j][r]`:
+/// Φ's columns 0–4, then Γ's), so that the product runs down contiguous columns and
+/// vectorises where the target has SIMD.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Transition {
-    phi: [[f32; 5]; 5],
-    gamma: [[f32; 3]; 5],
+    cols: [Vec5; 8],
 }
 
 const NO_TRANSITION: Transition = Transition {
-    phi: [[0.0; 5]; 5],
-    gamma: [[0.0; 3]; 5],
+    cols: [[0.0; 5]; 8],
 };
+
+/// Column of the held voltage in a [`Transition`].
+const COL_V: usize = 5;
 
 /// The six modes with dynamics, indexed `contact·3 + {both slide, motor stuck, load stuck}`;
 /// with both bodies stuck only the current moves, which is done in closed form.
@@ -352,17 +355,18 @@ fn to_f32(v: f64, field: &'static str) -> Result<f32, ParamError> {
 fn transition(a: &Mat, b: &[[f64; 5]; 3], tau: f64) -> Result<Transition, ParamError> {
     let (phi, psi) = discretise::exp_and_integral(a, tau);
     let mut t = NO_TRANSITION;
-    for (tr, pr) in t.phi.iter_mut().zip(phi.iter()) {
-        for (tv, pv) in tr.iter_mut().zip(pr.iter()) {
-            *tv = to_f32(*pv, "sample_period_s")?;
+    let (state_cols, input_cols) = t.cols.split_at_mut(5);
+    for (r, prow) in phi.iter().enumerate() {
+        for (col, pv) in state_cols.iter_mut().zip(prow.iter()) {
+            if let Some(slot) = col.get_mut(r) {
+                *slot = to_f32(*pv, "sample_period_s")?;
+            }
         }
     }
-    for (col, bc) in b.iter().enumerate() {
+    for (col, bc) in input_cols.iter_mut().zip(b.iter()) {
         let g = discretise::apply(&psi, bc);
-        for (row, gv) in g.iter().enumerate() {
-            if let Some(slot) = t.gamma.get_mut(row).and_then(|r| r.get_mut(col)) {
-                *slot = to_f32(*gv, "sample_period_s")?;
-            }
+        for (slot, gv) in col.iter_mut().zip(g.iter()) {
+            *slot = to_f32(*gv, "sample_period_s")?;
         }
     }
     Ok(t)
@@ -419,10 +423,7 @@ impl Plant {
         if frac > 0.0 {
             for (slot, &(contact, mf, lf)) in late_v.iter_mut().zip(MODE_FLAGS.iter()) {
                 let (a, b) = continuous(params, d.n_total, d.k_eq_nm_per_rad, contact, mf, lf);
-                let t = transition(&a, &b, (1.0 - frac) * h)?;
-                for (v, row) in slot.iter_mut().zip(t.gamma.iter()) {
-                    *v = row[0];
-                }
+                *slot = transition(&a, &b, (1.0 - frac) * h)?.cols[COL_V];
             }
         }
 
@@ -706,7 +707,7 @@ impl Plant {
             // Both bodies stuck: only the current moves. Its row in a motor-stuck mode is
             // exactly that (no back-EMF), with every voltage column.
             let t = set.modes.get(MOTOR_STUCK).unwrap_or(&NO_TRANSITION);
-            let mut i = t.phi[I][I] * s[I] + t.gamma[I][0] * inp.v;
+            let mut i = t.cols[I][I] * s[I] + t.cols[COL_V][I] * inp.v;
             match inp.extra {
                 Extra::None => {}
                 Extra::Late(cols, dv) => i += cols.get(MOTOR_STUCK).map_or(0.0, |c| c[I]) * dv,
@@ -725,12 +726,23 @@ impl Plant {
         let t = set.modes.get(idx).unwrap_or(&NO_TRANSITION);
         let (tm, tl) = self.forcing(m);
         let v = inp.v;
-        let mut out = s.map(|_| 0.0);
-        for ((o, row), g) in out.iter_mut().zip(t.phi.iter()).zip(t.gamma.iter()) {
-            // Balanced sum: short dependency chains, and still exactly odd in (s, v, τ).
-            *o = ((row[0] * s[0] + row[1] * s[1]) + (row[2] * s[2] + row[3] * s[3]))
-                + ((row[4] * s[4] + g[0] * v) + (g[1] * tm + g[2] * tl));
-        }
+        let c = &t.cols;
+        let u = [s[0], s[1], s[2], s[3], s[4], v, tm, tl];
+        // Balanced sum per row: short dependency chains, the same tree in every row, and
+        // still exactly odd in (s, v, τ). Rows 0–3 as four lanes with `wide` (SSE on
+        // x86-64, plain f32 on Cortex-M; the results are bit-identical either way), row 4
+        // alone.
+        let lanes = |j: usize| -> wide::f32x4 {
+            let col = c.get(j).unwrap_or(&[0.0; 5]);
+            let x = u.get(j).copied().unwrap_or(0.0);
+            wide::f32x4::new([col[0], col[1], col[2], col[3]]) * wide::f32x4::splat(x)
+        };
+        let q = ((lanes(0) + lanes(1)) + (lanes(2) + lanes(3)))
+            + ((lanes(4) + lanes(5)) + (lanes(6) + lanes(7)));
+        let q = q.to_array();
+        let r4 = ((c[0][4] * u[0] + c[1][4] * u[1]) + (c[2][4] * u[2] + c[3][4] * u[3]))
+            + ((c[4][4] * u[4] + c[5][4] * u[5]) + (c[6][4] * u[6] + c[7][4] * u[7]));
+        let mut out = [q[0], q[1], q[2], q[3], r4];
         match inp.extra {
             Extra::None => {}
             Extra::Late(cols, dv) => {
