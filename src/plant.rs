@@ -22,7 +22,7 @@
 //!
 //! A step is first taken whole in the mode at its start. If the end state contradicts that
 //! mode (the twist crossed ±δ, or its Hermite interpolant grazed it; a sliding body reversed;
-//! a stuck body's torque exceeds static friction), the step is redone as [`SUB_STEPS`] exact
+//! a stuck body's torque exceeds static friction), the step is redone as exact
 //! sub-steps. Within the sub-step where an event falls, its instant is located by
 //! interpolation and the part of the sub-step after it is corrected by the impulse the
 //! mode change implies: the dead-zone torque is continuous at the gap edge, so the contact
@@ -39,8 +39,40 @@ use crate::error::ParamError;
 use crate::math::{self, abs, fraction};
 use crate::params::ActuatorParams;
 
-/// Sub-steps per step when an event falls inside a step.
-pub const SUB_STEPS: usize = 8;
+/// Fewest sub-steps a step with an event is split into.
+pub const MIN_SUB_STEPS: usize = 8;
+
+/// Most sub-steps a step is split into (sample periods far longer than the mechanical
+/// periods, such as a bench record at 5.6 ms of a stiff gear train).
+pub const MAX_SUB_STEPS: usize = 1024;
+
+/// Sub-step length as a fraction of the fastest mechanical period: events are located
+/// within a sub-step and corrected to third order in its length.
+const SUB_STEP_PERIOD_FRACTION: f64 = 0.013;
+
+/// Beyond this many fastest periods per step, the gears may touch and part within one
+/// step without the whole-step check seeing it, so every step is sub-stepped.
+const WHOLE_STEP_PERIOD_FRACTION: f64 = 0.15;
+
+/// Sub-steps per step for these parameters, and whether every step must be sub-stepped.
+///
+/// The fastest mechanical frequency is that of the gears in contact with both bodies free,
+/// stiffened by the hinge spring: `√(k (1/J_L + 1/(N² J_m)) + k_h/J_L) / 2π` (eq. 17b with
+/// the hinge). The reference actuator at 0.5 ms gets 8 sub-steps and the whole-step path.
+fn sub_step_plan(p: &ActuatorParams, n: f64, k: f64) -> (usize, bool) {
+    let jm = p.motor.inertia_kg_m2;
+    let jl = p.load.inertia_kg_m2;
+    let w2 = k * (1.0 / jl + 1.0 / (n * n * jm)) + p.effects.hinge_stiffness / jl;
+    let f_max = libm::sqrt(w2) / (2.0 * core::f64::consts::PI);
+    let periods = p.sample_period_s * f_max;
+    let wanted = libm::ceil(periods / SUB_STEP_PERIOD_FRACTION);
+    let n_sub = if wanted.is_finite() {
+        (wanted as usize).clamp(MIN_SUB_STEPS, MAX_SUB_STEPS)
+    } else {
+        MAX_SUB_STEPS
+    };
+    (n_sub, periods > WHOLE_STEP_PERIOD_FRACTION)
+}
 
 /// Largest `effects.input_delay`, in sample periods.
 pub const MAX_DELAY_STEPS: usize = 16;
@@ -278,6 +310,10 @@ pub struct Plant {
     tach: f32,
     v_max: f32,
     tau_e: f32,
+    /// Sub-steps per step when a step is redone (see [`MIN_SUB_STEPS`]).
+    sub_steps: u16,
+    /// Every step is sub-stepped (the sample period is long against the mechanical periods).
+    always_sub: bool,
     delay_steps: u8,
     /// Fraction of a step during which the older command still applies.
     delay_frac: f32,
@@ -406,7 +442,8 @@ impl Plant {
         let d = params.derived()?;
         let h = params.sample_period_s;
         let full = mode_set(params, d.n_total, d.k_eq_nm_per_rad, h)?;
-        let sub = mode_set(params, d.n_total, d.k_eq_nm_per_rad, h / SUB_STEPS as f64)?;
+        let (sub_steps, always_sub) = sub_step_plan(params, d.n_total, d.k_eq_nm_per_rad);
+        let sub = mode_set(params, d.n_total, d.k_eq_nm_per_rad, h / sub_steps as f64)?;
 
         let delay = params.effects.input_delay / h;
         // Whole steps, and the fraction of a step the older command still covers. A delay
@@ -459,6 +496,8 @@ impl Plant {
             )?,
             v_max,
             tau_e: to_f32(m.inductance_h / m.resistance_ohm, "motor.inductance_h")?,
+            sub_steps: sub_steps as u16,
+            always_sub,
             delay_steps: whole as u8,
             delay_frac: frac as f32,
         })
@@ -783,23 +822,24 @@ impl Plant {
         } else {
             self.advance(&self.full, &m, s0, &Input::held(v_late))
         };
-        if self.consistent(&m, s0, &s1) {
+        if !self.always_sub && self.consistent(&m, s0, &s1) {
             return s1;
         }
         let mut s = *s0;
-        for j in 0..SUB_STEPS {
+        let n_sub = self.sub_steps as usize;
+        for j in 0..n_sub {
             // Voltage over this sub-step: the time-weighted mean where the delay's split
             // point falls inside it.
             let v = if split {
-                let t0 = j as f32 / SUB_STEPS as f32;
-                let t1 = (j + 1) as f32 / SUB_STEPS as f32;
+                let t0 = j as f32 / n_sub as f32;
+                let t1 = (j + 1) as f32 / n_sub as f32;
                 let f = self.delay_frac;
                 if t1 <= f {
                     v_early
                 } else if t0 >= f {
                     v_late
                 } else {
-                    let w = (f - t0) * SUB_STEPS as f32;
+                    let w = (f - t0) * n_sub as f32;
                     v_early * w + v_late * (1.0 - w)
                 }
             } else {
@@ -821,13 +861,13 @@ impl Plant {
             extra: Extra::Sine(&d.full, a_cos, a_sin),
         };
         let s1 = self.advance(&self.full, &m, s0, &inp);
-        if self.consistent(&m, s0, &s1) {
+        if !self.always_sub && self.consistent(&m, s0, &s1) {
             return s1;
         }
         let mut s = *s0;
         let (mut c, mut sn) = (a_cos, a_sin);
         let [cr, sr] = d.rot_sub;
-        for _ in 0..SUB_STEPS {
+        for _ in 0..self.sub_steps {
             let v_mid = c * d.half_sub[0] + sn * d.half_sub[1];
             let inp = Input {
                 v: 0.0,
@@ -1146,7 +1186,8 @@ impl SineDrive {
             }
             Ok(out)
         };
-        let hs = h / SUB_STEPS as f64;
+        let (n_sub, _) = sub_step_plan(params, d.n_total, d.k_eq_nm_per_rad);
+        let hs = h / n_sub as f64;
         let cs = |x: f64| [libm::cos(x) as f32, libm::sin(x) as f32];
         Ok(SineDrive {
             full: columns(h)?,

@@ -346,3 +346,25 @@ fn chaotic_rattle_agrees_in_statistics_not_samples() {
     );
     assert!((e_h - r_h).abs() / r_h <= tol_h, "harmonic {e_h} vs {r_h}");
 }
+
+#[test]
+fn long_sample_period_stays_accurate() {
+    // A bench record's period (5.625 ms, as ../shared/data) is longer than the reference
+    // actuator's resonance period (4.9 ms): every step is sub-stepped, sub-steps scaled to
+    // the fastest mechanical period.
+    let mut p = REFERENCE.with_backlash_deg(0.08);
+    p.sample_period_s = 0.005625;
+    let h = p.sample_period_s;
+    let n = (4.0 / h) as usize;
+    for (name, v) in [
+        ("10 V square 1 s", square(10.0, 1.0, n, h)),
+        ("3 V square 0.5 s", square(3.0, 0.5, n, h)),
+        ("15 V sine 1 Hz", sine(15.0, 1.0, n, h)),
+    ] {
+        let refr = converged_reference(&p, &v, name);
+        let emu = emulate(&p, &v);
+        let e = relative_rms_error(&emu, &refr);
+        eprintln!("{name} at 5.625 ms: relative RMS error {:.4} %", 100.0 * e);
+        assert!(e <= 0.01, "{name}: {e}");
+    }
+}
