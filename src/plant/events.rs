@@ -1,0 +1,206 @@
+//! Events inside a step: the gap edge, friction reversal and sticking, breakaway. Each is
+//! located within a sub-step and the remainder corrected by the impulse it implies.
+
+use super::modes::{Input, Motion, Vec5};
+use super::{Plant, I, TH, WL, WM, X};
+use crate::math::{self, abs, fraction};
+
+impl Plant {
+    /// One exact sub-step with event location and impulse correction.
+    pub(super) fn sub_step(&self, s0: &Vec5, inp: &Input) -> Vec5 {
+        let hs = self.sub.tau;
+        let v = inp.v_eff;
+        let m = self.mode_at(s0);
+        let mut s1 = self.advance(&self.sub, &m, s0, inp);
+        let motor_free = !matches!(m.motor, Motion::Stuck);
+        let load_free = !matches!(m.load, Motion::Stuck);
+
+        // Gap edge crossed: the mode's transition applied its own contact law over the
+        // whole sub-step. Replace that impulse by the true dead-zone impulse, both taken along
+        // x linear over the sub-step. The dead-zone torque is continuous at the edge, so this
+        // is exact to second order in the time past the edge (third after the position
+        // correction); it covers entering, leaving, and passing through the whole gap.
+        let g1 = self.gear_of(s1[X]);
+        if g1 != m.gear {
+            let true_impulse = self.dead_zone_impulse(s0[X], s1[X], hs);
+            let mode_impulse = if m.gear == 0 {
+                0.0
+            } else {
+                let b = if m.gear > 0 { self.delta } else { -self.delta };
+                self.k * (0.5 * (s0[X] + s1[X]) - b) * hs + self.c_mesh * (s1[X] - s0[X])
+            };
+            let p = true_impulse - mode_impulse;
+            // Time from the first edge crossing to the end of the sub-step.
+            let edge = if m.gear == 0 {
+                if g1 > 0 {
+                    self.delta
+                } else {
+                    -self.delta
+                }
+            } else if m.gear > 0 {
+                self.delta
+            } else {
+                -self.delta
+            };
+            let tau = (1.0 - fraction(edge - s0[X], s1[X] - s0[X])) * hs;
+            let dwm = if motor_free {
+                -p / (self.n * self.jm)
+            } else {
+                0.0
+            };
+            let dwl = if load_free { p / self.jl } else { 0.0 };
+            s1[WM] += dwm;
+            s1[WL] += dwl;
+            s1[X] += (dwm / self.n - dwl) * tau * (1.0 / 3.0);
+            s1[TH] += dwl * tau * (1.0 / 3.0);
+        }
+
+        match m.motor {
+            Motion::Slip(sg) => {
+                if sg * s1[WM] <= 0.0 {
+                    let alpha = fraction(s0[WM], s0[WM] - s1[WM]);
+                    let tau = (1.0 - alpha) * hs;
+                    let t0 = self.motor_drive(s0);
+                    let t1 = self.motor_drive(&s1);
+                    let t_star = t0 + alpha * (t1 - t0);
+                    let w = s1[WM];
+                    if abs(t_star) <= self.tf_m {
+                        s1[X] -= w * tau * 0.5 / self.n;
+                        s1[WM] = 0.0;
+                    } else {
+                        let dw = 2.0 * self.tf_m * sg * tau / self.jm;
+                        let w_new = w + dw;
+                        if sg * w_new > 0.0 {
+                            s1[X] -= w * tau * 0.5 / self.n;
+                            s1[WM] = 0.0;
+                        } else {
+                            s1[WM] = w_new;
+                            s1[X] += dw * tau * 0.5 / self.n;
+                        }
+                    }
+                }
+            }
+            Motion::Stuck => {
+                let t1 = self.motor_drive(&s1);
+                if abs(t1) > self.tf_m {
+                    let dw = self.motor_breakaway(s0, &s1, t1, v, hs);
+                    s1[WM] = dw.0;
+                    s1[X] += dw.1 / self.n;
+                }
+            }
+        }
+
+        match m.load {
+            Motion::Slip(sg) => {
+                if sg * s1[WL] <= 0.0 {
+                    let alpha = fraction(s0[WL], s0[WL] - s1[WL]);
+                    let tau = (1.0 - alpha) * hs;
+                    let t0 = self.load_drive(s0);
+                    let t1 = self.load_drive(&s1);
+                    let t_star = t0 + alpha * (t1 - t0);
+                    let w = s1[WL];
+                    if abs(t_star) <= self.tf_l {
+                        s1[X] += w * tau * 0.5;
+                        s1[TH] -= w * tau * 0.5;
+                        s1[WL] = 0.0;
+                    } else {
+                        let dw = 2.0 * self.tf_l * sg * tau / self.jl;
+                        let w_new = w + dw;
+                        if sg * w_new > 0.0 {
+                            s1[X] += w * tau * 0.5;
+                            s1[TH] -= w * tau * 0.5;
+                            s1[WL] = 0.0;
+                        } else {
+                            s1[WL] = w_new;
+                            s1[X] -= dw * tau * 0.5;
+                            s1[TH] += dw * tau * 0.5;
+                        }
+                    }
+                }
+            }
+            Motion::Stuck => {
+                let t1 = self.load_drive(&s1);
+                if abs(t1) > self.tf_l {
+                    let sg = if t1 > 0.0 { 1.0 } else { -1.0 };
+                    let t0 = self.load_drive(s0);
+                    let alpha = fraction(self.tf_l - sg * t0, sg * (t1 - t0));
+                    let tau = (1.0 - alpha) * hs;
+                    // Net torque grows linearly from 0 at breakaway to |t1| − T_f.
+                    let dw = sg * (sg * t1 - self.tf_l) * tau * 0.5 / self.jl;
+                    s1[WL] = dw;
+                    s1[X] -= dw * tau * (1.0 / 3.0);
+                    s1[TH] += dw * tau * (1.0 / 3.0);
+                }
+            }
+        }
+        s1
+    }
+
+    /// ∫ T_L dt over a sub-step of length `hs` along x linear from `x0` to `x1`: the
+    /// spring part over the stretches beyond ±δ and the mesh damping part c Δx over them.
+    pub(super) fn dead_zone_impulse(&self, x0: f32, x1: f32, hs: f32) -> f32 {
+        // One flank: part of [x0, x1] beyond `edge` on side `side` (+1: x > edge).
+        let flank = |edge: f32, side: f32| -> f32 {
+            let (a, b) = (side * (x0 - edge), side * (x1 - edge));
+            if a <= 0.0 && b <= 0.0 {
+                return 0.0;
+            }
+            // Fraction of the sub-step spent beyond the edge and the penetrations at its ends.
+            let (frac, pa, pb) = if a > 0.0 && b > 0.0 {
+                (1.0, a, b)
+            } else if a > 0.0 {
+                (fraction(a, a - b), a, 0.0)
+            } else {
+                (fraction(b, b - a), 0.0, b)
+            };
+            side * (self.k * 0.5 * (pa + pb) * frac * hs + self.c_mesh * (pb - pa))
+        };
+        flank(self.delta, 1.0) + flank(-self.delta, -1.0)
+    }
+
+    /// Motor speed at the end of a sub-step in which it broke away from static friction,
+    /// and the motor angle it gained, rad (at the motor). The breakaway instant follows the
+    /// exponential rise of the current `i(t) = i∞ + (i0 − i∞) e^{−t/τe}` (the motor was
+    /// stuck, so there is no back-EMF); the gear torque is taken as its sub-step mean.
+    pub(super) fn motor_breakaway(
+        &self,
+        s0: &Vec5,
+        s1: &Vec5,
+        t1: f32,
+        v: f32,
+        hs: f32,
+    ) -> (f32, f32) {
+        let sg = if t1 > 0.0 { 1.0 } else { -1.0 };
+        let tl_mean = 0.5
+            * (self.transmitted(s0, self.gear_of(s0[X]))
+                + self.transmitted(s1, self.gear_of(s1[X])));
+        let i_inf = v / self.r;
+        // σ·drive(t) = a + b e^{−t/τe}
+        let a = sg * (self.kt * i_inf - tl_mean / self.n);
+        let b = sg * self.kt * (s0[I] - i_inf);
+        let excess_end = sg * t1 - self.tf_m;
+        let (t_star, e_star) = {
+            let r = (self.tf_m - a) / b;
+            if b != 0.0 && r > 0.0 && r < 1.0 && a > self.tf_m {
+                (-self.tau_e * math::ln(r), r)
+            } else {
+                // Not driven by the current's rise (the gear torque grew): linear.
+                let t0 = sg * self.motor_drive(s0);
+                let alpha = fraction(self.tf_m - t0, sg * t1 - t0);
+                let t = alpha * hs;
+                (t, math::exp(-t / self.tau_e))
+            }
+        };
+        let tau = hs - t_star;
+        if tau.is_nan() || tau <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let impulse = if b != 0.0 && a > self.tf_m {
+            (a - self.tf_m) * tau + b * self.tau_e * (e_star - self.sub.decay)
+        } else {
+            excess_end * tau * 0.5
+        };
+        let w = sg * impulse / self.jm;
+        (w, w * tau * 0.5)
+    }
+}

@@ -1,0 +1,472 @@
+//! The geared servo as a stepped plant: exact per-mode discretisation, event handling for the
+//! backlash and for stick/slip friction, zero-order-hold voltage input.
+//!
+//! # Model
+//! States (`f32`): armature current `i`, motor speed `ωm`, load speed `ωL`, total twist
+//! `x = θm/N − θL` and load angle `θL` (MODEL.md, reduced dead-zone form):
+//!
+//! ```text
+//! L di/dt   = V − R i − k_b ωm
+//! J_m dωm/dt = k_t i − T_L/N − c_m ωm − T_fm sgn ωm
+//! J_L dωL/dt = T_L − c_L ωL − k_h θL − T_fL sgn ωL
+//! dx/dt = ωm/N − ωL,  dθL/dt = ωL
+//! T_L = k_eq (x ∓ δ) + c_mesh ẋ  while |x| > δ (in contact), 0 inside the gap
+//! ```
+//!
+//! # Scheme, and why
+//! Between events the system is linear with constant forcing in each *mode* (gears in contact
+//! or not; each body sliding or stuck), so it is integrated **exactly**: `s ← Φ s + Γ u` with
+//! `Φ = e^{Ah}`, `Γ = ∫e^{As}ds B` computed once in `f64` (see [`crate::discretise`]). This
+//! is exact however stiff the electrical mode (L/R ≈ 25 µs against a 500 µs step) and
+//! however close the resonance is to the step rate, and it costs one 5×5 product per step.
+//!
+//! A step is first taken whole in the mode at its start. If the end state contradicts that
+//! mode (the twist crossed ±δ, or its Hermite interpolant grazed it; a sliding body reversed;
+//! a stuck body's torque exceeds static friction), the step is redone as exact
+//! sub-steps. Within the sub-step where an event falls, its instant is located by
+//! interpolation and the part of the sub-step after it is corrected by the impulse the
+//! mode change implies: the dead-zone torque is continuous at the gap edge, so the contact
+//! impulse grows as `k v τ²/2` (corrected to third order); friction reverses (`2 T_f τ`) or
+//! sticks (velocity set exactly to zero); a motor breaking away from rest follows the
+//! exponential current rise, located in closed form. Stuck bodies keep a velocity of exactly
+//! zero (Karnopp-style), so there is no chatter and no dependence on a velocity threshold.
+//!
+//! Accuracy against an independent fine RK4 integration and against the analytic transfer
+//! function is proved in `host-tests/tests/plant_accuracy.rs`.
+
+mod events;
+mod modes;
+mod sine;
+mod step;
+
+pub use sine::SineDrive;
+
+use crate::error::ParamError;
+use crate::math::{self, abs};
+use crate::params::ActuatorParams;
+use modes::{
+    continuous, mode_set, sub_step_plan, to_f32, transition, ModeSet, Vec5, COL_V, MODE_FLAGS,
+};
+
+/// Fewest sub-steps a step with an event is split into.
+pub const MIN_SUB_STEPS: usize = 8;
+
+/// Most sub-steps a step is split into (sample periods far longer than the mechanical
+/// periods, such as a bench record at 5.6 ms of a stiff gear train).
+pub const MAX_SUB_STEPS: usize = 1024;
+
+/// Largest `effects.input_delay`, in sample periods.
+pub const MAX_DELAY_STEPS: usize = 16;
+
+/// Magnitude the applied voltage is limited to when `effects.voltage_limit` is 0, V. No
+/// servo amplifier comes near it; it exists so that an absurd command (1e30 V) saturates
+/// physically instead of overflowing.
+pub const MAX_ABS_VOLTAGE_V: f32 = 1.0e5;
+
+const I: usize = 0;
+const WM: usize = 1;
+const WL: usize = 2;
+const X: usize = 3;
+const TH: usize = 4;
+const HISTORY: usize = MAX_DELAY_STEPS + 2;
+
+/// Dynamic state of the plant. `Copy`; [`PlantState::REST`] is everything at rest at zero.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PlantState {
+    /// Armature current i, A.
+    pub current_a: f32,
+    /// Motor (pinion 1) speed ωm, rad/s.
+    pub motor_speed_rad_s: f32,
+    /// Load (fin) speed ωL, rad/s.
+    pub load_speed_rad_s: f32,
+    /// Total twist x = θm/N − θL at the load, rad; the gears are in contact when |x| > δ.
+    pub twist_rad: f32,
+    /// Load angle θL, rad.
+    pub load_angle_rad: f32,
+    /// Commanded voltages of the last steps (ring buffer), V; used by `input_delay`.
+    history: [f32; HISTORY],
+    /// Index of the newest command in `history`.
+    head: u8,
+}
+
+impl PlantState {
+    /// At rest: no current, no motion, zero angles, gears centred in the gap.
+    pub const REST: PlantState = PlantState {
+        current_a: 0.0,
+        motor_speed_rad_s: 0.0,
+        load_speed_rad_s: 0.0,
+        twist_rad: 0.0,
+        load_angle_rad: 0.0,
+        history: [0.0; HISTORY],
+        head: 0,
+    };
+
+    /// At rest with the load at `load_angle_rad` and the twist at `twist_rad` (both rad).
+    pub const fn at_rest(load_angle_rad: f32, twist_rad: f32) -> PlantState {
+        let mut s = PlantState::REST;
+        s.load_angle_rad = load_angle_rad;
+        s.twist_rad = twist_rad;
+        s
+    }
+
+    fn vec(&self) -> Vec5 {
+        [
+            self.current_a,
+            self.motor_speed_rad_s,
+            self.load_speed_rad_s,
+            self.twist_rad,
+            self.load_angle_rad,
+        ]
+    }
+
+    fn set(&mut self, s: &Vec5) {
+        self.current_a = s[I];
+        self.motor_speed_rad_s = s[WM];
+        self.load_speed_rad_s = s[WL];
+        self.twist_rad = s[X];
+        self.load_angle_rad = s[TH];
+    }
+}
+
+impl Default for PlantState {
+    fn default() -> Self {
+        PlantState::REST
+    }
+}
+
+/// What the plant's sensors and a debugger see after a step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Outputs {
+    /// Tachometer voltage V_t = (1 + tach_gain) k_ts ωm, V.
+    pub tach_voltage_v: f32,
+    /// Motor speed ωm, rad/s.
+    pub motor_speed_rad_s: f32,
+    /// Motor angle θm = N (x + θL), rad (loses resolution after many revolutions in `f32`).
+    pub motor_angle_rad: f32,
+    /// Load speed ωL, rad/s.
+    pub load_speed_rad_s: f32,
+    /// Load angle θL, rad.
+    pub load_angle_rad: f32,
+    /// Armature current at the sample instant, A.
+    pub current_a: f32,
+    /// Armature current averaged over the step just taken, A (what a current sensor
+    /// filtered over the PWM period reads). Equal to `current_a` from [`Plant::outputs`].
+    pub mean_current_a: f32,
+    /// Torque transmitted through the gears to the load T_L, N·m.
+    pub transmitted_torque_nm: f32,
+    /// Whether the gear teeth are in contact (|x| > δ).
+    pub in_contact: bool,
+    /// Voltage applied to the winding during the step just taken (after delay and
+    /// saturation; the late part when a fractional delay splits the step), V.
+    pub applied_voltage_v: f32,
+}
+
+impl Outputs {
+    /// Load angle in degrees.
+    pub fn load_angle_deg(&self) -> f32 {
+        self.load_angle_rad * (180.0 / core::f32::consts::PI)
+    }
+}
+/// A parameter set turned into the stepped plant: everything precomputed, `step()` does
+/// arithmetic only. Build once with [`Plant::new`], then drive any number of
+/// [`PlantState`]s with it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plant {
+    full: ModeSet,
+    sub: ModeSet,
+    /// Γ column of the voltage over the late part (1 − f) h of a step split by a fractional
+    /// input delay, per mode; all zero when the delay is a whole number of steps.
+    late_v: [Vec5; 6],
+    h: f32,
+    r: f32,
+    l: f32,
+    kt: f32,
+    kb: f32,
+    jm: f32,
+    jl: f32,
+    n: f32,
+    inv_n: f32,
+    /// 1 / (R h), for the mean current.
+    inv_rh: f32,
+    k: f32,
+    c_mesh: f32,
+    k_hinge: f32,
+    delta: f32,
+    tf_m: f32,
+    tf_l: f32,
+    tach: f32,
+    v_max: f32,
+    tau_e: f32,
+    /// Sub-steps per step when a step is redone (see [`MIN_SUB_STEPS`]).
+    sub_steps: u16,
+    /// Every step is sub-stepped (the sample period is long against the mechanical periods).
+    always_sub: bool,
+    delay_steps: u8,
+    /// Fraction of a step during which the older command still applies.
+    delay_frac: f32,
+}
+
+impl Plant {
+    /// Validates `params` and precomputes the exact transitions of every mode at the step
+    /// and at the sub-step. Costs some ten thousand `f64` operations: do it once, not in a loop.
+    pub fn new(params: &ActuatorParams) -> Result<Plant, ParamError> {
+        let d = params.derived()?;
+        let h = params.sample_period_s;
+        let full = mode_set(params, d.n_total, d.k_eq_nm_per_rad, h)?;
+        let (sub_steps, always_sub) = sub_step_plan(params, d.n_total, d.k_eq_nm_per_rad);
+        let sub = mode_set(params, d.n_total, d.k_eq_nm_per_rad, h / sub_steps as f64)?;
+
+        let delay = params.effects.input_delay / h;
+        // Whole steps, and the fraction of a step the older command still covers. A delay
+        // within 1e-9 step of a whole number is taken as whole (floating-point noise).
+        let mut whole = libm::floor(delay);
+        let mut frac = delay - whole;
+        if frac > 1.0 - 1e-9 {
+            whole += 1.0;
+            frac = 0.0;
+        } else if frac < 1e-9 {
+            frac = 0.0;
+        }
+        let mut late_v = [[0.0f32; 5]; 6];
+        if frac > 0.0 {
+            for (slot, &(contact, mf, lf)) in late_v.iter_mut().zip(MODE_FLAGS.iter()) {
+                let (a, b) = continuous(params, d.n_total, d.k_eq_nm_per_rad, contact, mf, lf);
+                *slot = transition(&a, &b, (1.0 - frac) * h)?.cols[COL_V];
+            }
+        }
+
+        let m = &params.motor;
+        let v_max = if params.effects.voltage_limit > 0.0 {
+            to_f32(params.effects.voltage_limit, "effects.voltage_limit")?.min(MAX_ABS_VOLTAGE_V)
+        } else {
+            MAX_ABS_VOLTAGE_V
+        };
+        Ok(Plant {
+            full,
+            sub,
+            late_v,
+            h: h as f32,
+            r: to_f32(m.resistance_ohm, "motor.resistance_ohm")?,
+            l: to_f32(m.inductance_h, "motor.inductance_h")?,
+            kt: to_f32(m.torque_constant_nm_per_a, "motor.torque_constant_nm_per_a")?,
+            kb: to_f32(m.back_emf_v_s_per_rad, "motor.back_emf_v_s_per_rad")?,
+            jm: to_f32(m.inertia_kg_m2, "motor.inertia_kg_m2")?,
+            jl: to_f32(params.load.inertia_kg_m2, "load.inertia_kg_m2")?,
+            n: d.n_total as f32,
+            inv_n: (1.0 / d.n_total) as f32,
+            inv_rh: to_f32(1.0 / (m.resistance_ohm * h), "motor.resistance_ohm")?,
+            k: to_f32(d.k_eq_nm_per_rad, "stiffness.k2_nm_per_rad")?,
+            c_mesh: to_f32(params.effects.mesh_damping, "effects.mesh_damping")?,
+            k_hinge: to_f32(params.effects.hinge_stiffness, "effects.hinge_stiffness")?,
+            delta: d.delta_rad as f32,
+            tf_m: to_f32(m.coulomb_friction_nm, "motor.coulomb_friction_nm")?,
+            tf_l: to_f32(params.load.coulomb_friction_nm, "load.coulomb_friction_nm")?,
+            tach: to_f32(
+                m.tach_v_s_per_rad * (1.0 + params.effects.tach_gain),
+                "effects.tach_gain",
+            )?,
+            v_max,
+            tau_e: to_f32(m.inductance_h / m.resistance_ohm, "motor.inductance_h")?,
+            sub_steps: sub_steps as u16,
+            always_sub,
+            delay_steps: whole as u8,
+            delay_frac: frac as f32,
+        })
+    }
+
+    /// Step length h, s.
+    pub fn sample_period_s(&self) -> f32 {
+        self.h
+    }
+
+    /// Half gap δ, rad at the load.
+    pub fn half_gap_rad(&self) -> f32 {
+        self.delta
+    }
+
+    /// Total ratio N.
+    pub fn ratio(&self) -> f32 {
+        self.n
+    }
+
+    /// Applies `voltage_v` (V) to the winding for one step (zero-order hold) and returns the
+    /// outputs at the end of the step.
+    ///
+    /// Never fails, never allocates, never panics. A NaN command is taken as 0 V; ±∞ and any
+    /// magnitude beyond `effects.voltage_limit` (or [`MAX_ABS_VOLTAGE_V`]) saturate at it.
+    pub fn step(&self, state: &mut PlantState, voltage_v: f32) -> Outputs {
+        let cmd = self.saturate(voltage_v);
+        let (v_early, v_late) = self.delayed(state, cmd);
+        let s0 = state.vec();
+        let s1 = self.advance_step(&s0, v_early, v_late);
+        state.set(&s1);
+        let v_mean = v_early * self.delay_frac + v_late * (1.0 - self.delay_frac);
+        let mut out = self.outputs(state);
+        out.applied_voltage_v = v_late;
+        out.mean_current_a = self.mean_current(&s0, &s1, v_mean);
+        out
+    }
+
+    /// Applies the continuous voltage `amplitude_v · sin(phase_rad + ω τ)` over one step
+    /// (τ from the step's start, ω the drive's frequency) and returns the outputs at its end.
+    /// The caller advances `phase_rad` by [`SineDrive::phase_step_rad`] each step.
+    ///
+    /// `effects.input_delay` shifts the phase (exact for a sine). A sine whose amplitude
+    /// exceeds the voltage limit is not a sine at the winding: that step falls back to the
+    /// held, saturated mid-step value. NaN is taken as 0 V. `applied_voltage_v` reports the
+    /// mid-step value.
+    pub fn step_sine(
+        &self,
+        state: &mut PlantState,
+        drive: &SineDrive,
+        amplitude_v: f32,
+        phase_rad: f32,
+    ) -> Outputs {
+        let (sn, cs) = math::sin_cos(phase_rad - drive.delay_phase);
+        let (a_cos, a_sin) = (amplitude_v * sn, amplitude_v * cs);
+        let v_mid = a_cos * drive.half_full[0] + a_sin * drive.half_full[1];
+        // Non-finite amplitude or phase, or a sine beyond the limit: the held path handles it
+        // (NaN as 0 V, saturation).
+        let usable = v_mid.is_finite() && abs(amplitude_v) <= self.v_max;
+        if !usable {
+            return self.step(state, v_mid);
+        }
+        let s0 = state.vec();
+        let s1 = self.advance_step_sine(&s0, drive, a_cos, a_sin);
+        state.set(&s1);
+        // Exact mean of the sine over the step.
+        let [c1, s1r] = drive.rot_full;
+        let v_mean = if drive.omega_h > 0.0 {
+            (a_cos * s1r + a_sin * (1.0 - c1)) / drive.omega_h
+        } else {
+            a_cos
+        };
+        let mut out = self.outputs(state);
+        out.applied_voltage_v = v_mid;
+        out.mean_current_a = self.mean_current(&s0, &s1, v_mean);
+        out
+    }
+
+    /// Outputs of `state` as sampled now (before any step: the initial row of a record).
+    pub fn outputs(&self, state: &PlantState) -> Outputs {
+        let s = state.vec();
+        let gear = self.gear_of(s[X]);
+        let applied = state
+            .history
+            .get(state.head as usize)
+            .copied()
+            .unwrap_or(0.0);
+        Outputs {
+            tach_voltage_v: self.tach * s[WM],
+            motor_speed_rad_s: s[WM],
+            motor_angle_rad: self.n * (s[X] + s[TH]),
+            load_speed_rad_s: s[WL],
+            load_angle_rad: s[TH],
+            current_a: s[I],
+            mean_current_a: s[I],
+            transmitted_torque_nm: self.transmitted(&s, gear),
+            in_contact: gear != 0,
+            applied_voltage_v: applied,
+        }
+    }
+
+    /// Energy stored in the winding, the inertias, the gear spring and the hinge spring, J.
+    pub fn stored_energy_j(&self, state: &PlantState) -> f64 {
+        let s = state.vec().map(f64::from);
+        let dz = if s[X] > f64::from(self.delta) {
+            s[X] - f64::from(self.delta)
+        } else if s[X] < -f64::from(self.delta) {
+            s[X] + f64::from(self.delta)
+        } else {
+            0.0
+        };
+        0.5 * (f64::from(self.l) * s[I] * s[I]
+            + f64::from(self.jm) * s[WM] * s[WM]
+            + f64::from(self.jl) * s[WL] * s[WL]
+            + f64::from(self.k) * dz * dz
+            + f64::from(self.k_hinge) * s[TH] * s[TH])
+    }
+
+    #[inline(always)]
+    fn saturate(&self, v: f32) -> f32 {
+        if v > self.v_max {
+            self.v_max
+        } else if v < -self.v_max {
+            -self.v_max
+        } else if v.is_nan() {
+            0.0
+        } else {
+            v
+        }
+    }
+
+    /// Pushes the command and returns the voltages applied during the early (fraction
+    /// `delay_frac`) and the late part of this step.
+    #[inline(always)]
+    fn delayed(&self, state: &mut PlantState, cmd: f32) -> (f32, f32) {
+        if self.delay_steps == 0 && self.delay_frac == 0.0 {
+            return (cmd, cmd);
+        }
+        let head = (state.head as usize + 1) % HISTORY;
+        state.head = head as u8;
+        if let Some(slot) = state.history.get_mut(head) {
+            *slot = cmd;
+        }
+        let back = |k: usize| {
+            let idx = (head + HISTORY - (k % HISTORY)) % HISTORY;
+            state.history.get(idx).copied().unwrap_or(0.0)
+        };
+        let late = back(self.delay_steps as usize);
+        let early = back(self.delay_steps as usize + 1);
+        (early, late)
+    }
+
+    fn mean_current(&self, s0: &Vec5, s1: &Vec5, v: f32) -> f32 {
+        // ∫ i dt over the step from the winding equation: (V h − k_b Δθm − L Δi) / R.
+        let d_theta_m = self.n * ((s1[X] - s0[X]) + (s1[TH] - s0[TH]));
+        (v * self.h - self.kb * d_theta_m - self.l * (s1[I] - s0[I])) * self.inv_rh
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::REFERENCE;
+
+    #[test]
+    fn rest_with_zero_input_stays_exactly_at_rest() {
+        let p = Plant::new(&REFERENCE.with_backlash_deg(0.08)).unwrap();
+        let mut s = PlantState::REST;
+        for _ in 0..1000 {
+            p.step(&mut s, 0.0);
+        }
+        assert_eq!(s, PlantState::REST);
+    }
+
+    #[test]
+    fn dead_zone_transmits_no_torque_inside_gap() {
+        let p = Plant::new(&REFERENCE.with_backlash_deg(0.08)).unwrap();
+        let d = p.half_gap_rad();
+        for x in [-0.999 * d, -0.5 * d, 0.0, 0.3 * d, 0.999 * d] {
+            let o = p.outputs(&PlantState::at_rest(0.0, x));
+            assert_eq!(o.transmitted_torque_nm, 0.0);
+            assert!(!o.in_contact);
+        }
+        let o = p.outputs(&PlantState::at_rest(0.0, 2.0 * d));
+        assert!(o.in_contact && o.transmitted_torque_nm > 0.0);
+    }
+
+    #[test]
+    fn nan_and_infinite_commands_give_finite_outputs() {
+        let p = Plant::new(&REFERENCE.with_backlash_deg(0.08)).unwrap();
+        let mut s = PlantState::REST;
+        for v in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e30, -1e30, 0.0] {
+            for _ in 0..50 {
+                let o = p.step(&mut s, v);
+                assert!(o.tach_voltage_v.is_finite() && o.current_a.is_finite());
+            }
+        }
+    }
+}

@@ -1,0 +1,247 @@
+//! The plant's modes and their exact transitions, built once from the parameters.
+
+use super::{I, MAX_SUB_STEPS, MIN_SUB_STEPS, TH, WL, WM, X};
+use crate::discretise::{self, Mat};
+use crate::error::ParamError;
+use crate::params::ActuatorParams;
+
+/// Plant state as an array: i, ωm, ωL, x, θL.
+pub(super) type Vec5 = [f32; 5];
+
+/// Sub-step length as a fraction of the fastest mechanical period: events are located
+/// within a sub-step and corrected to third order in its length.
+pub(super) const SUB_STEP_PERIOD_FRACTION: f64 = 0.013;
+
+/// Beyond this many fastest periods per step, the gears may touch and part within one
+/// step without the whole-step check seeing it, so every step is sub-stepped.
+pub(super) const WHOLE_STEP_PERIOD_FRACTION: f64 = 0.15;
+
+/// Sub-steps per step for these parameters, and whether every step must be sub-stepped.
+///
+/// The fastest mechanical frequency is that of the gears in contact with both bodies free,
+/// stiffened by the hinge spring: `√(k (1/J_L + 1/(N² J_m)) + k_h/J_L) / 2π` (eq. 17b with
+/// the hinge). The reference actuator at 0.5 ms gets 8 sub-steps and the whole-step path.
+pub(super) fn sub_step_plan(p: &ActuatorParams, n: f64, k: f64) -> (usize, bool) {
+    let jm = p.motor.inertia_kg_m2;
+    let jl = p.load.inertia_kg_m2;
+    let w2 = k * (1.0 / jl + 1.0 / (n * n * jm)) + p.effects.hinge_stiffness / jl;
+    let f_max = libm::sqrt(w2) / (2.0 * core::f64::consts::PI);
+    let periods = p.sample_period_s * f_max;
+    let wanted = libm::ceil(periods / SUB_STEP_PERIOD_FRACTION);
+    let n_sub = if wanted.is_finite() {
+        (wanted as usize).clamp(MIN_SUB_STEPS, MAX_SUB_STEPS)
+    } else {
+        MAX_SUB_STEPS
+    };
+    (n_sub, periods > WHOLE_STEP_PERIOD_FRACTION)
+}
+
+/// Motion state of one body within a mode: stuck by static friction, or sliding with the
+/// given direction (the sign of its friction torque's opposite).
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub(super) enum Motion {
+    Stuck,
+    Slip(f32),
+}
+
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Mode {
+    /// +1 / −1 in contact on that flank, 0 in the gap.
+    pub(super) gear: i8,
+    pub(super) motor: Motion,
+    pub(super) load: Motion,
+}
+
+/// Exact transition of one mode over one (sub-)step: `s' = Φ s + Γ [V, τ_m, τ_L]`, with
+/// τ_m, τ_L constant torques on the motor and the load. Stored by columns (`cols[j][r]`:
+/// Φ's columns 0–4, then Γ's), so that the product runs down contiguous columns and
+/// vectorises where the target has SIMD.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Transition {
+    pub(super) cols: [Vec5; 8],
+}
+
+pub(super) const NO_TRANSITION: Transition = Transition {
+    cols: [[0.0; 5]; 8],
+};
+
+/// Column of the held voltage in a [`Transition`].
+pub(super) const COL_V: usize = 5;
+
+/// The six modes with dynamics, indexed `contact·3 + {both slide, motor stuck, load stuck}`;
+/// with both bodies stuck only the current moves, which is done in closed form.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct ModeSet {
+    pub(super) modes: [Transition; 6],
+    /// e^{−R τ / L} over this set's step τ, for the both-stuck case.
+    pub(super) decay: f32,
+    /// Step length τ, s.
+    pub(super) tau: f32,
+}
+
+impl Mode {
+    /// Index into the six modes with dynamics; `None` when both bodies are stuck.
+    #[inline(always)]
+    pub(super) fn index(&self) -> Option<usize> {
+        let c = if self.gear != 0 { 3 } else { 0 };
+        match (self.motor, self.load) {
+            (Motion::Slip(_), Motion::Slip(_)) => Some(c),
+            (Motion::Stuck, Motion::Slip(_)) => Some(c + 1),
+            (Motion::Slip(_), Motion::Stuck) => Some(c + 2),
+            (Motion::Stuck, Motion::Stuck) => None,
+        }
+    }
+}
+
+/// Voltage input over one (sub-)step.
+#[derive(Clone, Copy)]
+pub(super) struct Input<'a> {
+    /// Weight of the held-voltage column Γ_V, V.
+    pub(super) v: f32,
+    /// Voltage used by the closed forms (both bodies stuck, motor breakaway), V: the held
+    /// voltage, or the mid-step value of a sine.
+    pub(super) v_eff: f32,
+    pub(super) extra: Extra<'a>,
+}
+
+/// Voltage columns beyond the held one.
+#[derive(Clone, Copy)]
+pub(super) enum Extra<'a> {
+    None,
+    /// Per-mode column of the late part of a step split by a fractional delay, and the
+    /// voltage change at the split, V.
+    Late(&'a [Vec5; 6], f32),
+    /// Per-mode responses to cos ωτ and sin ωτ over the step, and their amplitudes, V.
+    Sine(&'a [[Vec5; 2]; 6], f32, f32),
+}
+
+impl<'a> Input<'a> {
+    pub(super) fn held(v: f32) -> Input<'a> {
+        Input {
+            v,
+            v_eff: v,
+            extra: Extra::None,
+        }
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+pub(super) fn continuous(
+    p: &ActuatorParams,
+    n: f64,
+    k: f64,
+    contact: bool,
+    motor_free: bool,
+    load_free: bool,
+) -> (Mat, [[f64; 5]; 3]) {
+    let m = &p.motor;
+    let e = &p.effects;
+    let (r, l, kt, kb, jm) = (
+        m.resistance_ohm,
+        m.inductance_h,
+        m.torque_constant_nm_per_a,
+        m.back_emf_v_s_per_rad,
+        m.inertia_kg_m2,
+    );
+    let jl = p.load.inertia_kg_m2;
+    let c = e.mesh_damping;
+    let mut a = [[0.0f64; 5]; 5];
+    a[I][I] = -r / l;
+    if motor_free {
+        a[I][WM] = -kb / l;
+        a[WM][I] = kt / jm;
+        a[WM][WM] = -e.motor_viscous / jm;
+        a[X][WM] = 1.0 / n;
+        if contact {
+            // −T_L/N with T_L = k x + c (ωm/N − ωL)
+            a[WM][X] = -k / (n * jm);
+            a[WM][WM] -= c / (n * n * jm);
+            if load_free {
+                a[WM][WL] = c / (n * jm);
+            }
+        }
+    }
+    if load_free {
+        a[WL][WL] = -e.load_viscous / jl;
+        a[WL][TH] = -e.hinge_stiffness / jl;
+        a[X][WL] = -1.0;
+        a[TH][WL] = 1.0;
+        if contact {
+            a[WL][X] = k / jl;
+            a[WL][WL] -= c / jl;
+            if motor_free {
+                a[WL][WM] = c / (n * jl);
+            }
+        }
+    }
+    let mut b = [[0.0f64; 5]; 3];
+    b[0][I] = 1.0 / l;
+    if motor_free {
+        b[1][WM] = 1.0 / jm;
+    }
+    if load_free {
+        b[2][WL] = 1.0 / jl;
+    }
+    (a, b)
+}
+
+pub(super) fn to_f32(v: f64, field: &'static str) -> Result<f32, ParamError> {
+    let f = v as f32;
+    if f.is_finite() {
+        Ok(f)
+    } else {
+        Err(ParamError::NotRepresentable(field))
+    }
+}
+
+pub(super) fn transition(a: &Mat, b: &[[f64; 5]; 3], tau: f64) -> Result<Transition, ParamError> {
+    let (phi, psi) = discretise::exp_and_integral(a, tau);
+    let mut t = NO_TRANSITION;
+    let (state_cols, input_cols) = t.cols.split_at_mut(5);
+    for (r, prow) in phi.iter().enumerate() {
+        for (col, pv) in state_cols.iter_mut().zip(prow.iter()) {
+            if let Some(slot) = col.get_mut(r) {
+                *slot = to_f32(*pv, "sample_period_s")?;
+            }
+        }
+    }
+    for (col, bc) in input_cols.iter_mut().zip(b.iter()) {
+        let g = discretise::apply(&psi, bc);
+        for (slot, gv) in col.iter_mut().zip(g.iter()) {
+            *slot = to_f32(*gv, "sample_period_s")?;
+        }
+    }
+    Ok(t)
+}
+
+/// Index of the mode "in the gap, motor stuck, load sliding" (its current row serves the
+/// both-stuck case).
+pub(super) const MOTOR_STUCK: usize = 1;
+
+pub(super) const MODE_FLAGS: [(bool, bool, bool); 6] = [
+    (false, true, true),
+    (false, false, true),
+    (false, true, false),
+    (true, true, true),
+    (true, false, true),
+    (true, true, false),
+];
+
+pub(super) fn mode_set(
+    p: &ActuatorParams,
+    n: f64,
+    k: f64,
+    tau: f64,
+) -> Result<ModeSet, ParamError> {
+    let mut modes = [NO_TRANSITION; 6];
+    for (slot, &(contact, motor_free, load_free)) in modes.iter_mut().zip(MODE_FLAGS.iter()) {
+        let (a, b) = continuous(p, n, k, contact, motor_free, load_free);
+        *slot = transition(&a, &b, tau)?;
+    }
+    let decay = libm::exp(-p.motor.resistance_ohm / p.motor.inductance_h * tau);
+    Ok(ModeSet {
+        modes,
+        decay: decay as f32,
+        tau: tau as f32,
+    })
+}
