@@ -12,12 +12,14 @@
 
 pub mod discretise;
 pub mod error;
+pub mod faults;
 pub mod math;
 pub mod params;
 pub mod plant;
 pub mod stiffness;
 
 pub use error::ParamError;
+pub use faults::{BrokenTooth, Jam, PlantFaults, Winding};
 pub use params::{
     ActuatorParams, Derived, Effects, GearTrain, LoadParams, MotorParams, Shaft, Stiffness,
     ToothGeometry, REFERENCE,

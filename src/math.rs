@@ -79,6 +79,14 @@ pub fn atan2(y: f32, x: f32) -> f32 {
     }
 }
 
+/// Angle wrapped into [−π, π), rad.
+#[inline]
+pub fn wrap_angle(x: f32) -> f32 {
+    let tau = core::f32::consts::TAU;
+    let r = libm::fmodf(x + core::f32::consts::PI, tau);
+    (if r < 0.0 { r + tau } else { r }) - core::f32::consts::PI
+}
+
 /// Fraction `num / den` clamped to [0, 1]; 0 when the quotient is NaN (0/0).
 #[inline(always)]
 pub fn fraction(num: f32, den: f32) -> f32 {

@@ -2,16 +2,17 @@
 //! located within a sub-step and the remainder corrected by the impulse it implies.
 
 use super::modes::{Input, Motion, Vec5};
+use super::step::Ctx;
 use super::{Plant, I, TH, WL, WM, X};
 use crate::math::{self, abs, fraction};
 
 impl Plant {
     /// One exact sub-step with event location and impulse correction.
-    pub(super) fn sub_step(&self, s0: &Vec5, inp: &Input) -> Vec5 {
+    pub(super) fn sub_step(&self, c: &Ctx, s0: &Vec5, inp: &Input) -> Vec5 {
         let hs = self.sub.tau;
         let v = inp.v_eff;
-        let m = self.mode_at(s0);
-        let mut s1 = self.advance(&self.sub, &m, s0, inp);
+        let m = self.mode_at(c, s0);
+        let mut s1 = self.advance(c, &self.sub, &m, s0, inp);
         let motor_free = !matches!(m.motor, Motion::Stuck);
         let load_free = !matches!(m.load, Motion::Stuck);
 
@@ -20,27 +21,27 @@ impl Plant {
         // x linear over the sub-step. The dead-zone torque is continuous at the edge, so this
         // is exact to second order in the time past the edge (third after the position
         // correction); it covers entering, leaving, and passing through the whole gap.
-        let g1 = self.gear_of(s1[X]);
+        let g1 = self.gear_of(c, s1[X]);
         if g1 != m.gear {
-            let true_impulse = self.dead_zone_impulse(s0[X], s1[X], hs);
+            let true_impulse = self.dead_zone_impulse(c, s0[X], s1[X], hs);
             let mode_impulse = if m.gear == 0 {
                 0.0
             } else {
-                let b = if m.gear > 0 { self.delta } else { -self.delta };
+                let b = if m.gear > 0 { c.delta } else { -c.delta };
                 self.k * (0.5 * (s0[X] + s1[X]) - b) * hs + self.c_mesh * (s1[X] - s0[X])
             };
             let p = true_impulse - mode_impulse;
             // Time from the first edge crossing to the end of the sub-step.
             let edge = if m.gear == 0 {
                 if g1 > 0 {
-                    self.delta
+                    c.delta
                 } else {
-                    -self.delta
+                    -c.delta
                 }
             } else if m.gear > 0 {
-                self.delta
+                c.delta
             } else {
-                -self.delta
+                -c.delta
             };
             let tau = (1.0 - fraction(edge - s0[X], s1[X] - s0[X])) * hs;
             let dwm = if motor_free {
@@ -60,15 +61,15 @@ impl Plant {
                 if sg * s1[WM] <= 0.0 {
                     let alpha = fraction(s0[WM], s0[WM] - s1[WM]);
                     let tau = (1.0 - alpha) * hs;
-                    let t0 = self.motor_drive(s0);
-                    let t1 = self.motor_drive(&s1);
+                    let t0 = self.motor_drive(c, s0);
+                    let t1 = self.motor_drive(c, &s1);
                     let t_star = t0 + alpha * (t1 - t0);
                     let w = s1[WM];
-                    if abs(t_star) <= self.tf_m {
+                    if abs(t_star) <= c.tf_m {
                         s1[X] -= w * tau * 0.5 / self.n;
                         s1[WM] = 0.0;
                     } else {
-                        let dw = 2.0 * self.tf_m * sg * tau / self.jm;
+                        let dw = 2.0 * c.tf_m * sg * tau / self.jm;
                         let w_new = w + dw;
                         if sg * w_new > 0.0 {
                             s1[X] -= w * tau * 0.5 / self.n;
@@ -81,9 +82,9 @@ impl Plant {
                 }
             }
             Motion::Stuck => {
-                let t1 = self.motor_drive(&s1);
-                if abs(t1) > self.tf_m {
-                    let dw = self.motor_breakaway(s0, &s1, t1, v, hs);
+                let t1 = self.motor_drive(c, &s1);
+                if abs(t1) > c.tf_m {
+                    let dw = self.motor_breakaway(c, s0, &s1, t1, v, hs);
                     s1[WM] = dw.0;
                     s1[X] += dw.1 / self.n;
                 }
@@ -95,16 +96,16 @@ impl Plant {
                 if sg * s1[WL] <= 0.0 {
                     let alpha = fraction(s0[WL], s0[WL] - s1[WL]);
                     let tau = (1.0 - alpha) * hs;
-                    let t0 = self.load_drive(s0);
-                    let t1 = self.load_drive(&s1);
+                    let t0 = self.load_drive(c, s0);
+                    let t1 = self.load_drive(c, &s1);
                     let t_star = t0 + alpha * (t1 - t0);
                     let w = s1[WL];
-                    if abs(t_star) <= self.tf_l {
+                    if abs(t_star) <= c.tf_l {
                         s1[X] += w * tau * 0.5;
                         s1[TH] -= w * tau * 0.5;
                         s1[WL] = 0.0;
                     } else {
-                        let dw = 2.0 * self.tf_l * sg * tau / self.jl;
+                        let dw = 2.0 * c.tf_l * sg * tau / self.jl;
                         let w_new = w + dw;
                         if sg * w_new > 0.0 {
                             s1[X] += w * tau * 0.5;
@@ -119,14 +120,14 @@ impl Plant {
                 }
             }
             Motion::Stuck => {
-                let t1 = self.load_drive(&s1);
-                if abs(t1) > self.tf_l {
+                let t1 = self.load_drive(c, &s1);
+                if !c.jammed && abs(t1) > c.tf_l {
                     let sg = if t1 > 0.0 { 1.0 } else { -1.0 };
-                    let t0 = self.load_drive(s0);
-                    let alpha = fraction(self.tf_l - sg * t0, sg * (t1 - t0));
+                    let t0 = self.load_drive(c, s0);
+                    let alpha = fraction(c.tf_l - sg * t0, sg * (t1 - t0));
                     let tau = (1.0 - alpha) * hs;
                     // Net torque grows linearly from 0 at breakaway to |t1| − T_f.
-                    let dw = sg * (sg * t1 - self.tf_l) * tau * 0.5 / self.jl;
+                    let dw = sg * (sg * t1 - c.tf_l) * tau * 0.5 / self.jl;
                     s1[WL] = dw;
                     s1[X] -= dw * tau * (1.0 / 3.0);
                     s1[TH] += dw * tau * (1.0 / 3.0);
@@ -138,7 +139,7 @@ impl Plant {
 
     /// ∫ T_L dt over a sub-step of length `hs` along x linear from `x0` to `x1`: the
     /// spring part over the stretches beyond ±δ and the mesh damping part c Δx over them.
-    pub(super) fn dead_zone_impulse(&self, x0: f32, x1: f32, hs: f32) -> f32 {
+    pub(super) fn dead_zone_impulse(&self, c: &Ctx, x0: f32, x1: f32, hs: f32) -> f32 {
         // One flank: part of [x0, x1] beyond `edge` on side `side` (+1: x > edge).
         let flank = |edge: f32, side: f32| -> f32 {
             let (a, b) = (side * (x0 - edge), side * (x1 - edge));
@@ -155,7 +156,7 @@ impl Plant {
             };
             side * (self.k * 0.5 * (pa + pb) * frac * hs + self.c_mesh * (pb - pa))
         };
-        flank(self.delta, 1.0) + flank(-self.delta, -1.0)
+        flank(c.delta, 1.0) + flank(-c.delta, -1.0)
     }
 
     /// Motor speed at the end of a sub-step in which it broke away from static friction,
@@ -164,6 +165,7 @@ impl Plant {
     /// stuck, so there is no back-EMF); the gear torque is taken as its sub-step mean.
     pub(super) fn motor_breakaway(
         &self,
+        c: &Ctx,
         s0: &Vec5,
         s1: &Vec5,
         t1: f32,
@@ -172,21 +174,21 @@ impl Plant {
     ) -> (f32, f32) {
         let sg = if t1 > 0.0 { 1.0 } else { -1.0 };
         let tl_mean = 0.5
-            * (self.transmitted(s0, self.gear_of(s0[X]))
-                + self.transmitted(s1, self.gear_of(s1[X])));
+            * (self.transmitted(c, s0, self.gear_of(c, s0[X]))
+                + self.transmitted(c, s1, self.gear_of(c, s1[X])));
         let i_inf = v / self.r;
         // σ·drive(t) = a + b e^{−t/τe}
         let a = sg * (self.kt * i_inf - tl_mean / self.n);
         let b = sg * self.kt * (s0[I] - i_inf);
-        let excess_end = sg * t1 - self.tf_m;
+        let excess_end = sg * t1 - c.tf_m;
         let (t_star, e_star) = {
-            let r = (self.tf_m - a) / b;
-            if b != 0.0 && r > 0.0 && r < 1.0 && a > self.tf_m {
+            let r = (c.tf_m - a) / b;
+            if b != 0.0 && r > 0.0 && r < 1.0 && a > c.tf_m {
                 (-self.tau_e * math::ln(r), r)
             } else {
                 // Not driven by the current's rise (the gear torque grew): linear.
-                let t0 = sg * self.motor_drive(s0);
-                let alpha = fraction(self.tf_m - t0, sg * t1 - t0);
+                let t0 = sg * self.motor_drive(c, s0);
+                let alpha = fraction(c.tf_m - t0, sg * t1 - t0);
                 let t = alpha * hs;
                 (t, math::exp(-t / self.tau_e))
             }
@@ -195,8 +197,8 @@ impl Plant {
         if tau.is_nan() || tau <= 0.0 {
             return (0.0, 0.0);
         }
-        let impulse = if b != 0.0 && a > self.tf_m {
-            (a - self.tf_m) * tau + b * self.tau_e * (e_star - self.sub.decay)
+        let impulse = if b != 0.0 && a > c.tf_m {
+            (a - c.tf_m) * tau + b * self.tau_e * (e_star - self.sub.decay)
         } else {
             excess_end * tau * 0.5
         };

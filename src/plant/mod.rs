@@ -42,11 +42,13 @@ mod step;
 pub use sine::SineDrive;
 
 use crate::error::ParamError;
+use crate::faults::{Jam, PlantFaults, Winding};
 use crate::math::{self, abs};
 use crate::params::ActuatorParams;
 use modes::{
     continuous, mode_set, sub_step_plan, to_f32, transition, ModeSet, Vec5, COL_V, MODE_FLAGS,
 };
+use step::Ctx;
 
 /// Fewest sub-steps a step with an event is split into.
 pub const MIN_SUB_STEPS: usize = 8;
@@ -297,15 +299,81 @@ impl Plant {
     /// Never fails, never allocates, never panics. A NaN command is taken as 0 V; ±∞ and any
     /// magnitude beyond `effects.voltage_limit` (or [`MAX_ABS_VOLTAGE_V`]) saturate at it.
     pub fn step(&self, state: &mut PlantState, voltage_v: f32) -> Outputs {
+        self.step_in(state, voltage_v, None)
+    }
+
+    /// [`Plant::step`] with run-time faults of the mechanics and the winding (see
+    /// [`PlantFaults`]). Out-of-range fault values are clamped to their physical range, so
+    /// no fault setting makes the step fail.
+    pub fn step_with_faults(
+        &self,
+        state: &mut PlantState,
+        voltage_v: f32,
+        faults: &PlantFaults,
+    ) -> Outputs {
+        self.step_in(state, voltage_v, Some(faults))
+    }
+
+    /// The step. `None` (no fault) is known at compile time in [`Plant::step`], so every
+    /// fault check folds away there.
+    #[inline(always)]
+    fn step_in(
+        &self,
+        state: &mut PlantState,
+        voltage_v: f32,
+        faults: Option<&PlantFaults>,
+    ) -> Outputs {
+        let nominal = faults.is_none_or(|f| *f == PlantFaults::NONE);
+        let faults = faults.unwrap_or(&PlantFaults::NONE);
         let cmd = self.saturate(voltage_v);
-        let (v_early, v_late) = self.delayed(state, cmd);
-        let s0 = state.vec();
-        let s1 = self.advance_step(&s0, v_early, v_late);
+        let (mut v_early, mut v_late) = self.delayed(state, cmd);
+        let mut s0 = state.vec();
+        match faults.winding {
+            Winding::Normal => {}
+            Winding::Shorted => (v_early, v_late) = (0.0, 0.0),
+            Winding::Open => {
+                // No current: the winding's voltage is the back-EMF, nothing drives a current.
+                s0[I] = 0.0;
+                let v = self.kb * s0[WM];
+                (v_early, v_late) = (v, v);
+            }
+        }
+        if faults.jam == Jam::Here {
+            s0[WL] = 0.0;
+        }
+        let c = if nominal {
+            self.nominal()
+        } else {
+            self.context(faults, &s0)
+        };
+        let mut s1 = self.advance_step(&c, &s0, v_early, v_late);
+        if faults.winding == Winding::Open {
+            s1[I] = 0.0;
+        }
+        if let Jam::AtAngle(a) = faults.jam {
+            // Reached the block within the step: held exactly there; the motor side keeps
+            // its angle, so the twist takes up the difference.
+            let (d0, d1) = (s0[TH] - a, s1[TH] - a);
+            if !c.jammed && a.is_finite() && (d1 == 0.0 || (d0 > 0.0) != (d1 > 0.0)) {
+                s1[X] += s1[TH] - a;
+                s1[TH] = a;
+                s1[WL] = 0.0;
+            }
+        }
         state.set(&s1);
         let v_mean = v_early * self.delay_frac + v_late * (1.0 - self.delay_frac);
-        let mut out = self.outputs(state);
+        let c_end = if nominal {
+            c
+        } else {
+            self.context(faults, &s1)
+        };
+        let mut out = self.outputs_in(&c_end, state);
         out.applied_voltage_v = v_late;
-        out.mean_current_a = self.mean_current(&s0, &s1, v_mean);
+        out.mean_current_a = if faults.winding == Winding::Open {
+            0.0
+        } else {
+            self.mean_current(&s0, &s1, v_mean)
+        };
         out
     }
 
@@ -334,7 +402,7 @@ impl Plant {
             return self.step(state, v_mid);
         }
         let s0 = state.vec();
-        let s1 = self.advance_step_sine(&s0, drive, a_cos, a_sin);
+        let s1 = self.advance_step_sine(&self.nominal(), &s0, drive, a_cos, a_sin);
         state.set(&s1);
         // Exact mean of the sine over the step.
         let [c1, s1r] = drive.rot_full;
@@ -351,13 +419,29 @@ impl Plant {
 
     /// Outputs of `state` as sampled now (before any step: the initial row of a record).
     pub fn outputs(&self, state: &PlantState) -> Outputs {
+        self.outputs_in(&self.nominal(), state)
+    }
+
+    /// Outputs of `state` under `faults` (worn backlash changes the contact, a broken tooth
+    /// the transmitted torque).
+    pub fn outputs_with_faults(&self, state: &PlantState, faults: &PlantFaults) -> Outputs {
+        self.outputs_in(&self.context(faults, &state.vec()), state)
+    }
+
+    #[inline(always)]
+    fn outputs_in(&self, c: &Ctx, state: &PlantState) -> Outputs {
         let s = state.vec();
-        let gear = self.gear_of(s[X]);
+        let gear = self.gear_of(c, s[X]);
         let applied = state
             .history
             .get(state.head as usize)
             .copied()
             .unwrap_or(0.0);
+        // A broken tooth's lost share is an external torque pair in the context.
+        let mut transmitted = self.transmitted(c, &s, gear);
+        if c.ext {
+            transmitted -= c.lost;
+        }
         Outputs {
             tach_voltage_v: self.tach * s[WM],
             motor_speed_rad_s: s[WM],
@@ -366,7 +450,7 @@ impl Plant {
             load_angle_rad: s[TH],
             current_a: s[I],
             mean_current_a: s[I],
-            transmitted_torque_nm: self.transmitted(&s, gear),
+            transmitted_torque_nm: transmitted,
             in_contact: gear != 0,
             applied_voltage_v: applied,
         }
@@ -375,10 +459,11 @@ impl Plant {
     /// Energy stored in the winding, the inertias, the gear spring and the hinge spring, J.
     pub fn stored_energy_j(&self, state: &PlantState) -> f64 {
         let s = state.vec().map(f64::from);
-        let dz = if s[X] > f64::from(self.delta) {
-            s[X] - f64::from(self.delta)
-        } else if s[X] < -f64::from(self.delta) {
-            s[X] + f64::from(self.delta)
+        let delta = f64::from(self.delta);
+        let dz = if s[X] > delta {
+            s[X] - delta
+        } else if s[X] < -delta {
+            s[X] + delta
         } else {
             0.0
         };

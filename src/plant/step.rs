@@ -4,14 +4,108 @@ use super::modes::ModeSet;
 use super::modes::{Extra, Input, Mode, Motion, Vec5, COL_V, MOTOR_STUCK, NO_TRANSITION};
 use super::sine::SineDrive;
 use super::{Plant, I, TH, WL, WM, X};
-use crate::math::{abs, fraction};
+use crate::faults::{Jam, PlantFaults};
+use crate::math::{self, abs, fraction};
+
+/// What may change from step to step: the parameters that faults alter, for this step.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Ctx {
+    /// Half gap δ, rad.
+    pub(super) delta: f32,
+    /// k δ, N·m.
+    pub(super) kd: f32,
+    /// Coulomb frictions, N·m.
+    pub(super) tf_m: f32,
+    pub(super) tf_l: f32,
+    /// External torques on the motor and on the load over this step, N·m.
+    pub(super) t_motor: f32,
+    pub(super) t_load: f32,
+    /// Gear torque lost at a broken tooth over this step, N·m at the load (part of the
+    /// external pair above: −lost on the load, +lost/N on the motor).
+    pub(super) lost: f32,
+    /// The load is held (jammed).
+    pub(super) jammed: bool,
+    /// External torques present (false lets the nominal step skip adding zeros, which
+    /// IEEE arithmetic cannot fold: −0 + 0 = +0).
+    pub(super) ext: bool,
+}
+
+/// `x` if finite, else `default`; then clamped to [lo, hi].
+fn sane(x: f32, default: f32, lo: f32, hi: f32) -> f32 {
+    let x = if x.is_finite() { x } else { default };
+    if x < lo {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}
 
 impl Plant {
+    /// The nominal context: no fault.
     #[inline(always)]
-    pub(super) fn gear_of(&self, x: f32) -> i8 {
-        if x > self.delta {
+    pub(super) fn nominal(&self) -> Ctx {
+        Ctx {
+            delta: self.delta,
+            kd: self.k * self.delta,
+            tf_m: self.tf_m,
+            tf_l: self.tf_l,
+            t_motor: 0.0,
+            t_load: 0.0,
+            lost: 0.0,
+            jammed: false,
+            ext: false,
+        }
+    }
+
+    /// The context of a step from state `s` under `f`. Out-of-range fault values are
+    /// clamped to their physical range (NaN to "no fault"), so no input makes the step fail.
+    #[inline(always)]
+    pub(super) fn context(&self, f: &PlantFaults, s: &Vec5) -> Ctx {
+        let mut c = self.nominal();
+        if *f == PlantFaults::NONE {
+            return c;
+        }
+        let wear = sane(
+            f.extra_backlash_deg,
+            0.0,
+            0.0,
+            crate::params::MAX_BACKLASH_DEG as f32,
+        );
+        c.delta += wear * (core::f32::consts::PI / 360.0);
+        c.kd = self.k * c.delta;
+        let ff = sane(f.friction_factor, 1.0, 0.0, 1.0e3);
+        c.tf_m *= ff;
+        c.tf_l *= ff;
+        c.t_load = sane(f.load_torque_nm, 0.0, -1.0e6, 1.0e6);
+        c.ext = true;
+        c.jammed = match f.jam {
+            Jam::None => false,
+            Jam::Here => true,
+            // Snapped exactly onto the angle when it was reached (see `step_with_faults`).
+            Jam::AtAngle(a) => s[TH] == a,
+        };
+        if let Some(t) = f.broken_tooth {
+            let loss = sane(t.torque_loss, 0.0, 0.0, 1.0);
+            let half = 0.5 * sane(t.width_rad, 0.0, 0.0, core::f32::consts::TAU);
+            let rel = math::wrap_angle(s[TH] - sane(t.angle_rad, 0.0, -1.0e6, 1.0e6));
+            if loss > 0.0 && abs(rel) < half {
+                // The missing tooth carries `loss` of the gear torque: take it off both ends.
+                let lost = loss * self.transmitted(&c, s, self.gear_of(&c, s[X]));
+                c.t_load -= lost;
+                c.t_motor += lost * self.inv_n;
+                c.lost = lost;
+            }
+        }
+        c
+    }
+
+    #[inline(always)]
+    pub(super) fn gear_of(&self, c: &Ctx, x: f32) -> i8 {
+        if x > c.delta {
             1
-        } else if x < -self.delta {
+        } else if x < -c.delta {
             -1
         } else {
             0
@@ -19,11 +113,11 @@ impl Plant {
     }
 
     #[inline(always)]
-    pub(super) fn transmitted(&self, s: &Vec5, gear: i8) -> f32 {
+    pub(super) fn transmitted(&self, c: &Ctx, s: &Vec5, gear: i8) -> f32 {
         if gear == 0 {
             0.0
         } else {
-            let edge = if gear > 0 { self.delta } else { -self.delta };
+            let edge = if gear > 0 { c.delta } else { -c.delta };
             self.k * (s[X] - edge) + self.c_mesh * (s[WM] * self.inv_n - s[WL])
         }
     }
@@ -31,13 +125,23 @@ impl Plant {
     /// Torque driving the motor apart from its own friction (viscous friction is zero at
     /// the instants this is used: at rest or at a velocity reversal).
     #[inline(always)]
-    pub(super) fn motor_drive(&self, s: &Vec5) -> f32 {
-        self.kt * s[I] - self.transmitted(s, self.gear_of(s[X])) * self.inv_n
+    pub(super) fn motor_drive(&self, c: &Ctx, s: &Vec5) -> f32 {
+        let d = self.kt * s[I] - self.transmitted(c, s, self.gear_of(c, s[X])) * self.inv_n;
+        if c.ext {
+            d + c.t_motor
+        } else {
+            d
+        }
     }
 
     #[inline(always)]
-    pub(super) fn load_drive(&self, s: &Vec5) -> f32 {
-        self.transmitted(s, self.gear_of(s[X])) - self.k_hinge * s[TH]
+    pub(super) fn load_drive(&self, c: &Ctx, s: &Vec5) -> f32 {
+        let d = self.transmitted(c, s, self.gear_of(c, s[X])) - self.k_hinge * s[TH];
+        if c.ext {
+            d + c.t_load
+        } else {
+            d
+        }
     }
 
     #[inline(always)]
@@ -56,43 +160,50 @@ impl Plant {
     }
 
     #[inline(always)]
-    pub(super) fn mode_at(&self, s: &Vec5) -> Mode {
-        let gear = self.gear_of(s[X]);
+    pub(super) fn mode_at(&self, c: &Ctx, s: &Vec5) -> Mode {
+        let gear = self.gear_of(c, s[X]);
         let motor = if s[WM] != 0.0 {
             Self::motion(s[WM], 0.0, 0.0)
         } else {
-            Self::motion(0.0, self.motor_drive(s), self.tf_m)
+            Self::motion(0.0, self.motor_drive(c, s), c.tf_m)
         };
-        let load = if s[WL] != 0.0 {
+        let load = if c.jammed {
+            Motion::Stuck
+        } else if s[WL] != 0.0 {
             Self::motion(s[WL], 0.0, 0.0)
         } else {
-            Self::motion(0.0, self.load_drive(s), self.tf_l)
+            Self::motion(0.0, self.load_drive(c, s), c.tf_l)
         };
         Mode { gear, motor, load }
     }
 
-    /// Constant torques of the mode: friction and the dead-zone offset ±k δ.
+    /// Constant torques of the mode: friction, the dead-zone offset ±k δ and external torques.
     #[inline(always)]
-    pub(super) fn forcing(&self, m: &Mode) -> (f32, f32) {
+    pub(super) fn forcing(&self, c: &Ctx, m: &Mode) -> (f32, f32) {
         let kd = match m.gear {
             0 => 0.0,
-            g if g > 0 => self.k * self.delta,
-            _ => -self.k * self.delta,
+            g if g > 0 => c.kd,
+            _ => -c.kd,
         };
         let fm = match m.motor {
-            Motion::Slip(sg) => -sg * self.tf_m,
+            Motion::Slip(sg) => -sg * c.tf_m,
             Motion::Stuck => 0.0,
         };
         let fl = match m.load {
-            Motion::Slip(sg) => -sg * self.tf_l,
+            Motion::Slip(sg) => -sg * c.tf_l,
             Motion::Stuck => 0.0,
         };
-        (fm + kd * self.inv_n, fl - kd)
+        let (tm, tl) = (fm + kd * self.inv_n, fl - kd);
+        if c.ext {
+            (tm + c.t_motor, tl + c.t_load)
+        } else {
+            (tm, tl)
+        }
     }
 
     /// Exact advance within one mode over the set's step with input `inp`.
     #[inline(always)]
-    pub(super) fn advance(&self, set: &ModeSet, m: &Mode, s: &Vec5, inp: &Input) -> Vec5 {
+    pub(super) fn advance(&self, c: &Ctx, set: &ModeSet, m: &Mode, s: &Vec5, inp: &Input) -> Vec5 {
         let Some(idx) = m.index() else {
             // Both bodies stuck: only the current moves. Its row in a motor-stuck mode is
             // exactly that (no back-EMF), with every voltage column.
@@ -114,7 +225,7 @@ impl Plant {
             return out;
         };
         let t = set.modes.get(idx).unwrap_or(&NO_TRANSITION);
-        let (tm, tl) = self.forcing(m);
+        let (tm, tl) = self.forcing(c, m);
         let v = inp.v;
         let c = &t.cols;
         let u = [s[0], s[1], s[2], s[3], s[4], v, tm, tl];
@@ -160,8 +271,8 @@ impl Plant {
     }
 
     /// One held-voltage step: `v_early` over the first `delay_frac` of it, `v_late` after.
-    pub(super) fn advance_step(&self, s0: &Vec5, v_early: f32, v_late: f32) -> Vec5 {
-        let m = self.mode_at(s0);
+    pub(super) fn advance_step(&self, c: &Ctx, s0: &Vec5, v_early: f32, v_late: f32) -> Vec5 {
+        let m = self.mode_at(c, s0);
         let split = self.delay_frac > 0.0;
         let s1 = if split {
             let inp = Input {
@@ -169,11 +280,11 @@ impl Plant {
                 v_eff: v_late,
                 extra: Extra::Late(&self.late_v, v_late - v_early),
             };
-            self.advance(&self.full, &m, s0, &inp)
+            self.advance(c, &self.full, &m, s0, &inp)
         } else {
-            self.advance(&self.full, &m, s0, &Input::held(v_late))
+            self.advance(c, &self.full, &m, s0, &Input::held(v_late))
         };
-        if !self.always_sub && self.consistent(&m, s0, &s1) {
+        if !self.always_sub && self.consistent(c, &m, s0, &s1) {
             return s1;
         }
         let mut s = *s0;
@@ -196,7 +307,7 @@ impl Plant {
             } else {
                 v_late
             };
-            s = self.sub_step(&s, &Input::held(v));
+            s = self.sub_step(c, &s, &Input::held(v));
         }
         s
     }
@@ -205,52 +316,53 @@ impl Plant {
     /// step's start.
     pub(super) fn advance_step_sine(
         &self,
+        c: &Ctx,
         s0: &Vec5,
         d: &SineDrive,
         a_cos: f32,
         a_sin: f32,
     ) -> Vec5 {
-        let m = self.mode_at(s0);
+        let m = self.mode_at(c, s0);
         let v_mid = a_cos * d.half_full[0] + a_sin * d.half_full[1];
         let inp = Input {
             v: 0.0,
             v_eff: v_mid,
             extra: Extra::Sine(&d.full, a_cos, a_sin),
         };
-        let s1 = self.advance(&self.full, &m, s0, &inp);
-        if !self.always_sub && self.consistent(&m, s0, &s1) {
+        let s1 = self.advance(c, &self.full, &m, s0, &inp);
+        if !self.always_sub && self.consistent(c, &m, s0, &s1) {
             return s1;
         }
         let mut s = *s0;
-        let (mut c, mut sn) = (a_cos, a_sin);
+        let (mut ac, mut asn) = (a_cos, a_sin);
         let [cr, sr] = d.rot_sub;
         for _ in 0..self.sub_steps {
-            let v_mid = c * d.half_sub[0] + sn * d.half_sub[1];
+            let v_mid = ac * d.half_sub[0] + asn * d.half_sub[1];
             let inp = Input {
                 v: 0.0,
                 v_eff: v_mid,
-                extra: Extra::Sine(&d.sub, c, sn),
+                extra: Extra::Sine(&d.sub, ac, asn),
             };
-            s = self.sub_step(&s, &inp);
+            s = self.sub_step(c, &s, &inp);
             // Move the phase origin to the next sub-step's start.
-            (c, sn) = (c * cr + sn * sr, sn * cr - c * sr);
+            (ac, asn) = (ac * cr + asn * sr, asn * cr - ac * sr);
         }
         s
     }
 
     /// Does the whole-step result agree with the mode it was computed in?
     #[inline(always)]
-    pub(super) fn consistent(&self, m: &Mode, s0: &Vec5, s1: &Vec5) -> bool {
-        if self.gear_of(s1[X]) != m.gear || self.grazes(m.gear, s0, s1) {
+    pub(super) fn consistent(&self, c: &Ctx, m: &Mode, s0: &Vec5, s1: &Vec5) -> bool {
+        if self.gear_of(c, s1[X]) != m.gear || self.grazes(c, m.gear, s0, s1) {
             return false;
         }
         let motor_ok = match m.motor {
             Motion::Slip(sg) => sg * s1[WM] > 0.0,
-            Motion::Stuck => abs(self.motor_drive(s1)) <= self.tf_m,
+            Motion::Stuck => abs(self.motor_drive(c, s1)) <= c.tf_m,
         };
         let load_ok = match m.load {
             Motion::Slip(sg) => sg * s1[WL] > 0.0,
-            Motion::Stuck => abs(self.load_drive(s1)) <= self.tf_l,
+            Motion::Stuck => c.jammed || abs(self.load_drive(c, s1)) <= c.tf_l,
         };
         motor_ok && load_ok
     }
@@ -258,7 +370,7 @@ impl Plant {
     /// Whether the twist may have crossed a gap edge and come back within the step: the
     /// cubic Hermite interpolant of x (ends and slopes) is checked at its turning point.
     #[inline(always)]
-    pub(super) fn grazes(&self, gear: i8, s0: &Vec5, s1: &Vec5) -> bool {
+    pub(super) fn grazes(&self, c: &Ctx, gear: i8, s0: &Vec5, s1: &Vec5) -> bool {
         let m0 = (s0[WM] * self.inv_n - s0[WL]) * self.h;
         let m1 = (s1[WM] * self.inv_n - s1[WL]) * self.h;
         let turning = (m0 > 0.0 && m1 < 0.0) || (m0 < 0.0 && m1 > 0.0);
@@ -273,9 +385,9 @@ impl Plant {
             + (-2.0 * t3 + 3.0 * t2) * s1[X]
             + (t3 - t2) * m1;
         match gear {
-            1 => p < self.delta,
-            -1 => p > -self.delta,
-            _ => p > self.delta || p < -self.delta,
+            1 => p < c.delta,
+            -1 => p > -c.delta,
+            _ => p > c.delta || p < -c.delta,
         }
     }
 }
