@@ -16,6 +16,7 @@ pub mod faults;
 pub mod math;
 pub mod params;
 pub mod plant;
+pub mod scenario;
 pub mod stiffness;
 
 pub use error::ParamError;

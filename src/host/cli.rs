@@ -4,6 +4,7 @@
 //! with a human summary, or a [`HostError`] that the binary maps to exit status 2 or 1.
 
 use crate::host::error::HostError;
+use crate::host::scenario_file::{self, HostScenario};
 use crate::host::{params_file, record};
 use crate::{ActuatorParams, Plant, PlantState};
 use clap::{Parser, Subcommand};
@@ -41,6 +42,9 @@ pub enum Command {
         /// Override the total backlash, degrees.
         #[arg(long, value_name = "B")]
         backlash_deg: Option<f64>,
+        /// Fault scenario (TOML, see `geared_servo::host::scenario_file`).
+        #[arg(long, value_name = "FAULTS.toml")]
+        scenario: Option<PathBuf>,
     },
 }
 
@@ -80,7 +84,8 @@ pub fn run(cli: &Cli) -> Result<Report, HostError> {
             input,
             output,
             backlash_deg,
-        } => simulate(cli, input, output, *backlash_deg),
+            scenario,
+        } => simulate(cli, input, output, *backlash_deg, scenario.as_deref()),
     }
 }
 
@@ -150,6 +155,16 @@ pub fn simulate_columns(
     dt: f64,
     volts: &[f64],
 ) -> Result<Vec<Vec<f64>>, HostError> {
+    simulate_with_scenario(p, dt, volts, None)
+}
+
+/// [`simulate_columns`] with a fault scenario played step by step.
+pub fn simulate_with_scenario(
+    p: &ActuatorParams,
+    dt: f64,
+    volts: &[f64],
+    mut scenario: Option<&mut HostScenario>,
+) -> Result<Vec<Vec<f64>>, HostError> {
     let mut p = *p;
     p.sample_period_s = dt;
     let plant = Plant::new(&p)
@@ -157,7 +172,7 @@ pub fn simulate_columns(
     let mut st = PlantState::REST;
     let mut cols = vec![Vec::with_capacity(volts.len()); SIMULATE_COLUMNS.len()];
     let mut o = plant.outputs(&st);
-    for &v in volts {
+    for (k, &v) in volts.iter().enumerate() {
         let row = [
             o.tach_voltage_v,
             o.motor_speed_rad_s,
@@ -171,7 +186,13 @@ pub fn simulate_columns(
         for (c, x) in cols.iter_mut().zip(row) {
             c.push(f64::from(x));
         }
-        o = plant.step(&mut st, v as f32);
+        o = match scenario.as_deref_mut() {
+            Some(sc) => {
+                let f = *sc.advance(k as u32);
+                plant.step_with_faults(&mut st, v as f32, &f)
+            }
+            None => plant.step(&mut st, v as f32),
+        };
     }
     Ok(cols)
 }
@@ -181,6 +202,7 @@ fn simulate(
     input: &Path,
     output: &Path,
     backlash: Option<f64>,
+    scenario: Option<&Path>,
 ) -> Result<Report, HostError> {
     let (p, name) = load_params(cli, backlash)?;
     let rec = record::read(input, false)?;
@@ -193,7 +215,11 @@ fn simulate(
         &pp,
         &format!("{} (sample period of the record)", input.display()),
     )?;
-    let cols = simulate_columns(&p, rec.sample_period_s, &rec.motor_voltage_v)?;
+    let mut sc = match scenario {
+        Some(path) => Some(scenario_file::load(path, rec.sample_period_s, rec.len())?),
+        None => None,
+    };
+    let cols = simulate_with_scenario(&p, rec.sample_period_s, &rec.motor_voltage_v, sc.as_mut())?;
     let mut columns: Vec<(&str, &[f64])> = vec![
         ("time_s", &rec.time_s),
         ("motor_voltage_v", &rec.motor_voltage_v),
@@ -210,6 +236,10 @@ fn simulate(
         format!("input: {}", input.display()),
         format!("backlash_deg: {}", p.backlash_deg),
         format!("sample_period_s: {}", rec.sample_period_s),
+        format!(
+            "scenario: {}",
+            scenario.map_or("none".to_string(), |p| p.display().to_string())
+        ),
     ];
     record::write(output, &comments, &columns)?;
     let json = json!({

@@ -5,5 +5,6 @@ pub mod cli;
 pub mod error;
 pub mod params_file;
 pub mod record;
+pub mod scenario_file;
 
 pub use error::{ErrorKind, HostError};

@@ -1,0 +1,237 @@
+//! Fault scenario files (TOML) for `simulate --scenario`.
+//!
+//! ```toml
+//! # Events in time order; each applies or clears one fault.
+//! [[event]]
+//! at_s = 0.5
+//! apply = "load_torque"      # profile "step" (default) or "gust"
+//! profile = "gust"
+//! amplitude_nm = 0.2
+//! duration_s = 0.05
+//!
+//! [[event]]
+//! at_s = 1.0
+//! apply = "jam"              # here; or at `angle_deg`
+//!
+//! [[event]]
+//! at_s = 1.5
+//! clear = "jam"
+//! ```
+//!
+//! Faults: `load_torque` (profile, amplitude_nm, duration_s), `jam` (angle_deg optional),
+//! `backlash_wear` (extra_deg), `friction_factor` (factor), `broken_tooth` (angle_deg,
+//! width_deg, torque_loss), `open_winding`, `shorted_winding`.
+
+use crate::faults::{BrokenTooth, Jam, Winding};
+use crate::host::error::HostError;
+use crate::scenario::{Fault, Scenario, ScenarioError, TorqueProfile};
+use serde::Deserialize;
+use std::path::Path;
+
+/// Events a scenario file may hold.
+pub const CAPACITY: usize = 64;
+
+/// A scenario as the host plays it.
+pub type HostScenario = Scenario<CAPACITY>;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileT {
+    #[serde(default)]
+    event: Vec<toml::Spanned<EventT>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EventT {
+    at_s: f64,
+    apply: Option<String>,
+    clear: Option<String>,
+    profile: Option<String>,
+    amplitude_nm: Option<f64>,
+    duration_s: Option<f64>,
+    angle_deg: Option<f64>,
+    extra_deg: Option<f64>,
+    factor: Option<f64>,
+    width_deg: Option<f64>,
+    torque_loss: Option<f64>,
+}
+
+const FAULTS: [&str; 7] = [
+    "load_torque",
+    "jam",
+    "backlash_wear",
+    "friction_factor",
+    "broken_tooth",
+    "open_winding",
+    "shorted_winding",
+];
+
+/// Reads a scenario for a run of `steps` steps of `dt` seconds.
+pub fn load(path: &Path, dt: f64, steps: usize) -> Result<HostScenario, HostError> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| HostError::input(format!("{name}: cannot read: {e}")))?;
+    parse(&text, &name, dt, steps)
+}
+
+/// Parses a scenario; `name` is used in messages.
+pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenario, HostError> {
+    let f: FileT = toml::from_str(text).map_err(|e| {
+        let line = e.span().map(|s| line_of(text, s.start)).unwrap_or(0);
+        HostError::input(format!(
+            "{name}: line {line}: {}",
+            e.message().replace('\n', " ")
+        ))
+    })?;
+    if f.event.len() > CAPACITY {
+        return Err(HostError::input(format!(
+            "{name}: {} events, more than the scenario capacity of {CAPACITY}",
+            f.event.len()
+        )));
+    }
+    let mut sc = HostScenario::new();
+    // Which faults are in force, to refuse overlapping contradictions.
+    let mut active: Vec<(&'static str, usize)> = Vec::new();
+    let mut prev_at = f64::NEG_INFINITY;
+    for (i, ev) in f.event.iter().enumerate() {
+        let line = line_of(text, ev.span().start);
+        let e = ev.get_ref();
+        let here =
+            |msg: String| HostError::input(format!("{name}: line {line} (event {}): {msg}", i + 1));
+        if !e.at_s.is_finite() || e.at_s < 0.0 {
+            return Err(here(format!(
+                "`at_s` = {} must be a finite time ≥ 0",
+                e.at_s
+            )));
+        }
+        if e.at_s < prev_at {
+            return Err(here("events must be in time order".into()));
+        }
+        prev_at = e.at_s;
+        let step = (e.at_s / dt).round();
+        if step >= steps as f64 {
+            return Err(here(format!(
+                "at {} s, past the end of the run ({} s)",
+                e.at_s,
+                steps as f64 * dt
+            )));
+        }
+        let (kind, clearing) = match (&e.apply, &e.clear) {
+            (Some(a), None) => (a.as_str(), false),
+            (None, Some(c)) => (c.as_str(), true),
+            (Some(_), Some(_)) => return Err(here("give `apply` or `clear`, not both".into())),
+            (None, None) => return Err(here("missing `apply` or `clear`".into())),
+        };
+        let Some(kind) = FAULTS.iter().copied().find(|k| *k == kind) else {
+            return Err(here(format!(
+                "unknown fault `{kind}` (known: {})",
+                FAULTS.join(", ")
+            )));
+        };
+        let num = |v: Option<f64>, key: &str| -> Result<f64, HostError> {
+            let v = v.ok_or_else(|| here(format!("`{kind}` needs `{key}`")))?;
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(here(format!("`{key}` must be finite")))
+            }
+        };
+        let fault = if clearing {
+            match kind {
+                "load_torque" => Fault::ClearLoadTorque,
+                "jam" => Fault::Jam(Jam::None),
+                "backlash_wear" => Fault::BacklashWear(0.0),
+                "friction_factor" => Fault::FrictionFactor(1.0),
+                "broken_tooth" => Fault::BrokenTooth(None),
+                _ => Fault::Winding(Winding::Normal),
+            }
+        } else {
+            match kind {
+                "load_torque" => {
+                    let amplitude_nm = num(e.amplitude_nm, "amplitude_nm")? as f32;
+                    match e.profile.as_deref().unwrap_or("step") {
+                        "step" => Fault::LoadTorque(TorqueProfile::Step { amplitude_nm }),
+                        "gust" => {
+                            let d = num(e.duration_s, "duration_s")?;
+                            if d <= 0.0 {
+                                return Err(here("`duration_s` must be > 0".into()));
+                            }
+                            let duration_steps = (d / dt).round().max(1.0) as u32;
+                            Fault::LoadTorque(TorqueProfile::Gust {
+                                amplitude_nm,
+                                duration_steps,
+                            })
+                        }
+                        other => {
+                            return Err(here(format!("unknown profile `{other}` (step, gust)")))
+                        }
+                    }
+                }
+                "jam" => match e.angle_deg {
+                    None => Fault::Jam(Jam::Here),
+                    Some(a) => {
+                        Fault::Jam(Jam::AtAngle(num(Some(a), "angle_deg")?.to_radians() as f32))
+                    }
+                },
+                "backlash_wear" => {
+                    let w = num(e.extra_deg, "extra_deg")?;
+                    if !(0.0..=crate::params::MAX_BACKLASH_DEG).contains(&w) {
+                        return Err(here(format!(
+                            "`extra_deg` = {w} must be within 0–{}",
+                            crate::params::MAX_BACKLASH_DEG
+                        )));
+                    }
+                    Fault::BacklashWear(w as f32)
+                }
+                "friction_factor" => {
+                    let k = num(e.factor, "factor")?;
+                    if k < 0.0 {
+                        return Err(here("`factor` must be ≥ 0".into()));
+                    }
+                    Fault::FrictionFactor(k as f32)
+                }
+                "broken_tooth" => {
+                    let loss = num(e.torque_loss, "torque_loss")?;
+                    if !(0.0..=1.0).contains(&loss) {
+                        return Err(here("`torque_loss` must be within 0–1".into()));
+                    }
+                    Fault::BrokenTooth(Some(BrokenTooth {
+                        angle_rad: num(e.angle_deg, "angle_deg")?.to_radians() as f32,
+                        width_rad: num(e.width_deg, "width_deg")?.abs().to_radians() as f32,
+                        torque_loss: loss as f32,
+                    }))
+                }
+                "open_winding" => Fault::Winding(Winding::Open),
+                _ => Fault::Winding(Winding::Shorted),
+            }
+        };
+        // Overlaps: a fault applied again, or the other winding fault, while one is in force.
+        let group = match kind {
+            "open_winding" | "shorted_winding" => "winding",
+            k => k,
+        };
+        if clearing {
+            active.retain(|(g, _)| *g != group);
+        } else if let Some((_, since)) = active.iter().find(|(g, _)| *g == group) {
+            return Err(here(format!(
+                "`{kind}` overlaps the {group} fault applied by event {since} (clear it first)"
+            )));
+        } else if !matches!(kind, "backlash_wear" | "friction_factor") {
+            active.push((group, i + 1));
+        }
+        sc.push(step as u32, fault).map_err(|err| match err {
+            ScenarioError::Contradiction => {
+                here("contradicts another event at the same instant".into())
+            }
+            other => here(other.to_string()),
+        })?;
+    }
+    Ok(sc)
+}
+
+fn line_of(text: &str, offset: usize) -> usize {
+    text.get(..offset)
+        .map(|s| s.matches('\n').count() + 1)
+        .unwrap_or(0)
+}
