@@ -10,19 +10,28 @@
     )
 )]
 
+pub mod actuator;
+#[cfg(feature = "cortex-m")]
+pub mod cortex_m;
 pub mod discretise;
 pub mod error;
+pub mod hal;
 pub mod math;
 pub mod params;
 pub mod plant;
+pub mod sensors;
 pub mod stiffness;
+pub mod trace;
 
+pub use actuator::{Parts, VirtualActuator};
 pub use error::ParamError;
+pub use hal::{Drive, DriveConfig, DutyError};
 pub use params::{
     ActuatorParams, Derived, Effects, GearTrain, LoadParams, MotorParams, Shaft, Stiffness,
     ToothGeometry, REFERENCE,
 };
 pub use plant::{Outputs, Plant, PlantState};
+pub use sensors::{AdcChannel, EncoderConfig, EncoderShaft, Readings, SensorConfig};
 
 #[cfg(feature = "host")]
 pub mod host;
