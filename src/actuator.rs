@@ -26,7 +26,7 @@
 //! ```
 
 use crate::hal::{Dir, Drive, DriveConfig, DutyError, Pwm};
-use crate::sensors::{Readings, SensorConfig, Sensors};
+use crate::sensors::{Physical, Readings, SensorConfig, Sensors};
 use crate::{Outputs, ParamError, Plant, PlantState};
 
 /// Plant + state + H-bridge + sensors. About the size of [`Plant`] (see the crate docs for
@@ -121,6 +121,13 @@ impl VirtualActuator {
     #[inline]
     pub fn dir(&mut self) -> Dir<'_> {
         self.drive.dir()
+    }
+
+    /// The physical values after the last step in Q16.16, as ideal sensors would give them
+    /// to a fixed-point firmware (converted on each call, a few instructions per field).
+    #[inline]
+    pub fn physical(&self) -> Physical {
+        Physical::from_outputs(&self.outputs)
     }
 
     /// PWM, direction and readings at once.

@@ -1,5 +1,6 @@
 //! Emulated sensors, as firmware reads them: tachometer and potentiometer through ADCs, a
-//! quadrature encoder counter, and the physical values in Q16.16 fixed point.
+//! quadrature encoder counter, and the physical values in Q16.16 fixed point ([`Physical`],
+//! converted on demand by [`crate::VirtualActuator::physical`]).
 //!
 //! Sampling happens once per [`crate::VirtualActuator::step`], at the end of the step (an ADC
 //! conversion triggered at the control tick); reading a [`Readings`] is free and pure.
@@ -17,17 +18,21 @@
 
 use fixed::types::I16F16;
 
-use crate::{Outputs, ParamError};
+use crate::{math, Outputs, ParamError};
 
-/// Converts `x` to Q16.16, saturating at ±32768 and mapping NaN to 0 (never panics).
+/// Converts `x` to Q16.16, rounding to nearest (ties away from zero), saturating at
+/// [`I16F16::MIN`] / [`I16F16::MAX`], NaN to 0. Never panics; a handful of instructions (the
+/// float-to-int cast saturates by itself).
 #[inline]
 pub fn to_fixed(x: f32) -> I16F16 {
-    match I16F16::checked_from_num(x) {
-        Some(v) => v,
-        None if x > 0.0 => I16F16::MAX,
-        None if x < 0.0 => I16F16::MIN,
-        None => I16F16::ZERO,
-    }
+    let y = x * 65536.0; // exact: a power-of-two scaling (overflow gives ±∞, which saturates)
+    let bits = if math::abs(y) < 8_388_608.0 {
+        // Below 2^23 the ±0.5 is exact, so this rounds; above, y is already an integer.
+        (if y >= 0.0 { y + 0.5 } else { y - 0.5 }) as i32
+    } else {
+        y as i32
+    };
+    I16F16::from_bits(bits)
 }
 
 /// One ADC channel: resolution, the physical range it spans and its offset error.
@@ -96,12 +101,24 @@ impl AdcChannel {
         (self.max - self.min) / f32::from(self.full_scale_counts())
     }
 
+    /// Counts per sensor unit, 1/lsb = (2^bits − 1) / (max − min).
+    #[inline]
+    pub fn counts_per_unit(&self) -> f32 {
+        f32::from(self.full_scale_counts()) / (self.max - self.min)
+    }
+
     /// Converts the physical value `x` (sensor units) with `noise` counts added before
     /// rounding; saturates at 0 and full scale.
     #[inline]
     pub fn convert(&self, x: f32, noise: f32) -> u16 {
+        self.convert_scaled(self.counts_per_unit(), x, noise)
+    }
+
+    /// [`AdcChannel::convert`] with [`AdcChannel::counts_per_unit`] precomputed.
+    #[inline(always)]
+    fn convert_scaled(&self, counts_per_unit: f32, x: f32, noise: f32) -> u16 {
         let full = self.full_scale_counts();
-        let c = (x - self.min) / self.lsb() + f32::from(self.offset_counts) + noise;
+        let c = (x - self.min) * counts_per_unit + f32::from(self.offset_counts) + noise;
         if c >= f32::from(full) {
             full
         } else if c > 0.0 {
@@ -215,6 +232,21 @@ pub struct Physical {
     pub current_a: I16F16,
 }
 
+impl Physical {
+    /// The plant outputs `o` in Q16.16 (computed on demand, not every step: see
+    /// [`crate::VirtualActuator::physical`]).
+    #[inline]
+    pub fn from_outputs(o: &Outputs) -> Physical {
+        Physical {
+            tach_voltage_v: to_fixed(o.tach_voltage_v),
+            motor_speed_rad_s: to_fixed(o.motor_speed_rad_s),
+            load_angle_rad: to_fixed(o.load_angle_rad),
+            load_speed_rad_s: to_fixed(o.load_speed_rad_s),
+            current_a: to_fixed(o.current_a),
+        }
+    }
+}
+
 #[cfg(feature = "defmt")]
 impl defmt::Format for Physical {
     fn format(&self, f: defmt::Formatter) {
@@ -240,8 +272,6 @@ pub struct Readings {
     pub pot_counts: u16,
     /// Encoder counter, counts (wrapping).
     pub encoder_count: i32,
-    /// Ideal physical values, Q16.16.
-    pub physical: Physical,
 }
 
 impl Readings {
@@ -288,6 +318,8 @@ pub struct Sensors {
     config: SensorConfig,
     rng: XorShift32,
     counts_per_rad: f32,
+    tach_counts_per_v: f32,
+    pot_counts_per_rad: f32,
     /// Encoder shaft angle at the previous sample, rad.
     last_angle_rad: f32,
     /// Fraction of a count accumulated since the last edge, in [0, 1).
@@ -304,6 +336,8 @@ impl Sensors {
             config: *config,
             rng: XorShift32::new(config.noise_seed),
             counts_per_rad: config.encoder.counts_per_rev as f32 / core::f32::consts::TAU,
+            tach_counts_per_v: config.tach.counts_per_unit(),
+            pot_counts_per_rad: config.pot.counts_per_unit(),
             last_angle_rad: 0.0,
             fraction: 0.0,
             readings: Readings::default(),
@@ -345,8 +379,14 @@ impl Sensors {
     pub fn sample(&mut self, o: &Outputs) {
         let n_tach = self.noise(self.config.tach.noise_lsb);
         let n_pot = self.noise(self.config.pot.noise_lsb);
-        self.readings.tach_counts = self.config.tach.convert(o.tach_voltage_v, n_tach);
-        self.readings.pot_counts = self.config.pot.convert(o.load_angle_rad, n_pot);
+        self.readings.tach_counts =
+            self.config
+                .tach
+                .convert_scaled(self.tach_counts_per_v, o.tach_voltage_v, n_tach);
+        self.readings.pot_counts =
+            self.config
+                .pot
+                .convert_scaled(self.pot_counts_per_rad, o.load_angle_rad, n_pot);
 
         let angle = self.encoder_angle(o);
         let f = self.fraction + (angle - self.last_angle_rad) * self.counts_per_rad;
@@ -359,13 +399,5 @@ impl Sensors {
         let rest = f - whole as f32;
         self.fraction = if rest >= 0.0 && rest < 1.0 { rest } else { 0.0 };
         self.readings.encoder_count = self.readings.encoder_count.wrapping_add(whole);
-
-        self.readings.physical = Physical {
-            tach_voltage_v: to_fixed(o.tach_voltage_v),
-            motor_speed_rad_s: to_fixed(o.motor_speed_rad_s),
-            load_angle_rad: to_fixed(o.load_angle_rad),
-            load_speed_rad_s: to_fixed(o.load_speed_rad_s),
-            current_a: to_fixed(o.current_a),
-        };
     }
 }
