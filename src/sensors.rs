@@ -397,7 +397,11 @@ impl Sensors {
             whole = whole.wrapping_sub(1);
         }
         let rest = f - whole as f32;
-        self.fraction = if rest >= 0.0 && rest < 1.0 { rest } else { 0.0 };
+        self.fraction = if (0.0..1.0).contains(&rest) {
+            rest
+        } else {
+            0.0
+        };
         self.readings.encoder_count = self.readings.encoder_count.wrapping_add(whole);
     }
 }

@@ -8,6 +8,7 @@
 //! shows). The figures are printed with `{}` (shortest round-trip representation), so any
 //! one-ulp drift shows. Under `--features micromath` the expected file (a libm run) does not
 //! apply: the test then checks the figures against it with the tolerances stated there.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test fails by panicking
 
 #[path = "../../examples/shared/fin_loop.rs"]
 mod fin_loop;

@@ -4,6 +4,7 @@
 //! `cargo test -p geared-servo-host-tests --test math_backend -- --nocapture` (libm: every
 //! difference is exactly 0) and the same with `--features micromath` (the bounds below; the
 //! measured values are printed and written in `docs/issue4-readme.md`).
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test fails by panicking
 
 use geared_servo::math;
 

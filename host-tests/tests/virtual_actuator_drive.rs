@@ -1,5 +1,6 @@
 //! The embedded-hal drive of the virtual actuator: duty and direction become the winding
 //! voltage of the next step; bad duties are the trait's error, never a panic.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test fails by panicking
 
 use embedded_hal::digital::{OutputPin, StatefulOutputPin};
 use embedded_hal::pwm::{Error as _, ErrorKind, SetDutyCycle};

@@ -1,5 +1,6 @@
 //! Emulated sensors against the physical values: ADC quantisation and saturation, encoder
 //! counts, fixed-point conversion, seeded noise; and the trace ring buffer.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test fails by panicking
 
 use fixed::types::I16F16;
 use geared_servo::sensors::{to_fixed, Physical, Sensors};
