@@ -29,8 +29,8 @@ use crate::hal::{Dir, Drive, DriveConfig, DutyError, Pwm};
 use crate::sensors::{Physical, Readings, SensorConfig, Sensors};
 use crate::{Outputs, ParamError, Plant, PlantState};
 
-/// Plant + state + H-bridge + sensors. About the size of [`Plant`] (see the crate docs for
-/// the figures); no heap.
+/// Plant + state + H-bridge + sensors; no heap. 2360 B on thumbv7em (of which [`Plant`]
+/// 2132 B and [`PlantState`] 96 B; printed by the `fin_loop` example on target).
 #[derive(Clone, Debug, PartialEq)]
 pub struct VirtualActuator {
     plant: Plant,
