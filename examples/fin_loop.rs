@@ -15,7 +15,7 @@ mod fin_loop;
 
 #[cfg(target_os = "none")]
 mod bare {
-    use cortex_m::peripheral::{syst::SystClkSource, SYST};
+    use geared_servo::cortex_m::SysTickStopwatch;
     use cortex_m_rt::entry;
     use cortex_m_semihosting::{debug, hprintln};
     use geared_servo::{Plant, PlantState, VirtualActuator};
@@ -25,28 +25,12 @@ mod bare {
     /// 40 instructions.
     const INSTRUCTIONS_PER_TICK: u64 = 40;
 
-    /// SysTick free-running from 2^24 − 1 down on the core clock (the library's
-    /// `geared_servo::cortex_m::SysTickStopwatch` does the same behind the `cortex-m` feature;
-    /// written out here so that the example needs no feature flag).
-    struct SysTickClock;
-
-    impl SysTickClock {
-        fn start(syst: &mut SYST) -> SysTickClock {
-            syst.disable_interrupt();
-            syst.set_clock_source(SystClkSource::Core);
-            syst.set_reload(0x00FF_FFFF);
-            syst.clear_current();
-            syst.enable_counter();
-            SysTickClock
-        }
-    }
-
-    impl super::fin_loop::StepClock for SysTickClock {
+    impl super::fin_loop::StepClock for SysTickStopwatch {
         fn now(&self) -> u32 {
-            SYST::get_current()
+            SysTickStopwatch::now(self)
         }
         fn ticks_between(&self, earlier: u32, later: u32) -> u32 {
-            earlier.wrapping_sub(later) & 0x00FF_FFFF
+            SysTickStopwatch::ticks_between(self, earlier, later)
         }
     }
 
@@ -56,7 +40,7 @@ mod bare {
     fn main() -> ! {
         let ok = match cortex_m::Peripherals::take() {
             Some(mut p) => {
-                let sw = SysTickClock::start(&mut p.SYST);
+                let sw = SysTickStopwatch::start(&mut p.SYST);
                 match super::fin_loop::run(&mut |a| hprintln!("{}", a), Some(&sw)) {
                     Some((fig, c)) => {
                         let n = u64::from(c.steps.max(1));
