@@ -15,9 +15,9 @@ mod fin_loop;
 
 #[cfg(target_os = "none")]
 mod bare {
-    use geared_servo::cortex_m::SysTickStopwatch;
     use cortex_m_rt::entry;
     use cortex_m_semihosting::{debug, hprintln};
+    use geared_servo::cortex_m::SysTickStopwatch;
     use geared_servo::{Plant, PlantState, VirtualActuator};
     use panic_semihosting as _;
 

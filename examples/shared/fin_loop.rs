@@ -7,6 +7,7 @@
 
 use embedded_hal::digital::OutputPin;
 use embedded_hal::pwm::SetDutyCycle;
+use geared_servo::trace::{Trace, TraceSample};
 use geared_servo::{
     math, DriveConfig, Plant, PlantState, Readings, SensorConfig, VirtualActuator, REFERENCE,
 };
@@ -217,6 +218,8 @@ pub fn run(
     let (mut ss_sum, mut ss_n) = (0.0f32, 0u32);
     let (mut sq_sum, mut tr_n, mut tr_max) = (0.0f32, 0u32, 0.0f32);
 
+    // The last 32 steps, dumped if a figure fails (what firmware would send after the fact).
+    let mut trace: Trace<TraceSample, 32> = Trace::new();
     let mut volts: heapless::Vec<f32, { 2 * PHASE_STEPS as usize }> = heapless::Vec::new();
     for k in 0..2 * PHASE_STEPS {
         let (reference, sine_phase) = if k < PHASE_STEPS {
@@ -244,6 +247,7 @@ pub fn run(
         }
         let o = act.outputs();
         volts.push(o.applied_voltage_v).ok()?;
+        trace.record(TraceSample::capture(&act));
         cost.steps_in_gap += u32::from(!o.in_contact);
         let theta = o.load_angle_rad;
         let n = k + 1; // the outputs are at the end of step k
@@ -311,6 +315,10 @@ pub fn run(
         act.readings().tach_counts,
         cost.steps_in_gap
     ));
+    if !fig.ok() {
+        line(format_args!("trace: {}", TraceSample::HEADER));
+        trace.dump(|s| line(format_args!("trace: {}", s)));
+    }
     line(format_args!(
         "result: {}",
         if fig.ok() { "ok" } else { "FAIL" }
