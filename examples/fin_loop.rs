@@ -62,6 +62,15 @@ mod bare {
                             c.steps,
                             c.replay_identical
                         );
+                        let ev = u64::from(c.plant_event_steps.max(1));
+                        let quiet = u64::from((c.steps - c.plant_event_steps).max(1));
+                        hprintln!(
+                            "cost: Plant::step() by kind: {} steps with a contact change average {} instructions, the other {} average {}",
+                            c.plant_event_steps,
+                            c.plant_event_ticks * INSTRUCTIONS_PER_TICK / ev,
+                            c.steps - c.plant_event_steps,
+                            (c.plant_ticks - c.plant_event_ticks) * INSTRUCTIONS_PER_TICK / quiet
+                        );
                         hprintln!(
                             "cost: RAM size_of Plant {} B, PlantState {} B, VirtualActuator {} B",
                             core::mem::size_of::<Plant>(),

@@ -170,6 +170,11 @@ pub struct StepCost {
     /// Ticks inside `Plant::step()` alone, replaying the run's voltages on a fresh state
     /// (the same trajectory), summed, ticks.
     pub plant_ticks: u64,
+    /// Of `plant_ticks`: the steps where the gears went into or out of contact (gap edge
+    /// events, handled by sub-steps), ticks.
+    pub plant_event_ticks: u64,
+    /// Number of those steps.
+    pub plant_event_steps: u32,
     /// True when the replay ended in exactly the state of the run (so the timed replay is
     /// the run's trajectory).
     pub replay_identical: bool,
@@ -278,12 +283,19 @@ pub fn run(
     if let Some(c) = clock {
         let plant = act.plant();
         let mut st = PlantState::REST;
+        let mut contact = plant.outputs(&st).in_contact;
         for &v in volts.iter() {
             let t0 = c.now();
             let o = plant.step(&mut st, v);
             let t1 = c.now();
-            core::hint::black_box(o);
-            cost.plant_ticks += u64::from(c.ticks_between(t0, t1));
+            let o = core::hint::black_box(o);
+            let ticks = u64::from(c.ticks_between(t0, t1));
+            cost.plant_ticks += ticks;
+            if o.in_contact != contact {
+                cost.plant_event_ticks += ticks;
+                cost.plant_event_steps += 1;
+            }
+            contact = o.in_contact;
         }
         cost.replay_identical = st == *act.state();
     }
