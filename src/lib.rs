@@ -10,22 +10,31 @@
     )
 )]
 
+pub mod actuator;
+#[cfg(feature = "cortex-m")]
+pub mod cortex_m;
 pub mod discretise;
 pub mod error;
 pub mod faults;
+pub mod hal;
 pub mod math;
 pub mod params;
 pub mod plant;
 pub mod scenario;
+pub mod sensors;
 pub mod stiffness;
+pub mod trace;
 
+pub use actuator::{Parts, VirtualActuator};
 pub use error::ParamError;
 pub use faults::{BrokenTooth, Jam, PlantFaults, Winding};
+pub use hal::{Drive, DriveConfig, DutyError};
 pub use params::{
     ActuatorParams, Derived, Effects, GearTrain, LoadParams, MotorParams, Shaft, Stiffness,
     ToothGeometry, REFERENCE,
 };
 pub use plant::{Outputs, Plant, PlantState, SineDrive};
+pub use sensors::{AdcChannel, EncoderConfig, EncoderShaft, Readings, SensorConfig};
 
 #[cfg(feature = "host")]
 pub mod host;

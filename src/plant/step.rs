@@ -230,20 +230,30 @@ impl Plant {
         let c = &t.cols;
         let u = [s[0], s[1], s[2], s[3], s[4], v, tm, tl];
         // Balanced sum per row: short dependency chains, the same tree in every row, and
-        // still exactly odd in (s, v, τ). Rows 0–3 as four lanes with `wide` (SSE on
-        // x86-64, plain f32 on Cortex-M; the results are bit-identical either way), row 4
-        // alone.
-        let lanes = |j: usize| -> wide::f32x4 {
-            let col = c.get(j).unwrap_or(&[0.0; 5]);
-            let x = u.get(j).copied().unwrap_or(0.0);
-            wide::f32x4::new([col[0], col[1], col[2], col[3]]) * wide::f32x4::splat(x)
+        // still exactly odd in (s, v, τ). Every row computes the same products and sums in
+        // the same order on every target, so the results are bit-identical everywhere.
+        macro_rules! row {
+            ($r:literal) => {
+                ((c[0][$r] * u[0] + c[1][$r] * u[1]) + (c[2][$r] * u[2] + c[3][$r] * u[3]))
+                    + ((c[4][$r] * u[4] + c[5][$r] * u[5]) + (c[6][$r] * u[6] + c[7][$r] * u[7]))
+            };
+        }
+        // On x86-64 rows 0–3 go as one SSE vector (`wide`); elsewhere (Cortex-M has no
+        // SIMD for f32) plain scalar code is shorter.
+        #[cfg(target_arch = "x86_64")]
+        let q = {
+            let lanes = |j: usize| -> wide::f32x4 {
+                let col = c.get(j).unwrap_or(&[0.0; 5]);
+                let x = u.get(j).copied().unwrap_or(0.0);
+                wide::f32x4::new([col[0], col[1], col[2], col[3]]) * wide::f32x4::splat(x)
+            };
+            (((lanes(0) + lanes(1)) + (lanes(2) + lanes(3)))
+                + ((lanes(4) + lanes(5)) + (lanes(6) + lanes(7))))
+            .to_array()
         };
-        let q = ((lanes(0) + lanes(1)) + (lanes(2) + lanes(3)))
-            + ((lanes(4) + lanes(5)) + (lanes(6) + lanes(7)));
-        let q = q.to_array();
-        let r4 = ((c[0][4] * u[0] + c[1][4] * u[1]) + (c[2][4] * u[2] + c[3][4] * u[3]))
-            + ((c[4][4] * u[4] + c[5][4] * u[5]) + (c[6][4] * u[6] + c[7][4] * u[7]));
-        let mut out = [q[0], q[1], q[2], q[3], r4];
+        #[cfg(not(target_arch = "x86_64"))]
+        let q = [row!(0), row!(1), row!(2), row!(3)];
+        let mut out = [q[0], q[1], q[2], q[3], row!(4)];
         match inp.extra {
             Extra::None => {}
             Extra::Late(cols, dv) => {

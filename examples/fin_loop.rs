@@ -1,0 +1,102 @@
+//! Fin position loop at 2 kHz on the virtual actuator, driven only through `embedded_hal`
+//! traits and read only through the emulated sensors: a 5° step then a 20 Hz sine. Prints rise
+//! time, overshoot, steady-state and tracking error (compared with
+//! `examples/expected/fin_loop.txt`) and, on the target only, `cost:` lines: instructions per
+//! `step()` (SysTick under QEMU `-icount shift=0`, 40 instructions a tick) and RAM sizes.
+//! Exits non-zero if a figure is outside its bound.
+//!
+//! Target: `cargo run --release --example fin_loop --target thumbv7em-none-eabihf`
+//! Host:   `cargo run --release --example fin_loop`
+#![cfg_attr(target_os = "none", no_std)]
+#![cfg_attr(target_os = "none", no_main)]
+
+#[path = "shared/fin_loop.rs"]
+mod fin_loop;
+
+#[cfg(target_os = "none")]
+mod bare {
+    use cortex_m_rt::entry;
+    use cortex_m_semihosting::{debug, hprintln};
+    use geared_servo::cortex_m::SysTickStopwatch;
+    use geared_servo::{Plant, PlantState, VirtualActuator};
+    use panic_semihosting as _;
+
+    /// QEMU mps2-an386 under `-icount shift=0`: SysTick on the core clock ticks once per
+    /// 40 instructions.
+    const INSTRUCTIONS_PER_TICK: u64 = 40;
+
+    impl super::fin_loop::StepClock for SysTickStopwatch {
+        fn now(&self) -> u32 {
+            SysTickStopwatch::now(self)
+        }
+        fn ticks_between(&self, earlier: u32, later: u32) -> u32 {
+            SysTickStopwatch::ticks_between(self, earlier, later)
+        }
+    }
+
+    // A fault hangs in cortex-m-rt's default handler (a custom one needs `unsafe`, which the
+    // workspace forbids); CI runs QEMU under `timeout`.
+    #[entry]
+    fn main() -> ! {
+        let ok = match cortex_m::Peripherals::take() {
+            Some(mut p) => {
+                let sw = SysTickStopwatch::start(&mut p.SYST);
+                match super::fin_loop::run(&mut |a| hprintln!("{}", a), Some(&sw)) {
+                    Some((fig, c)) => {
+                        let n = u64::from(c.steps.max(1));
+                        let net = c.ticks.saturating_sub(c.overhead_ticks);
+                        hprintln!(
+                            "cost: VirtualActuator::step() (plant + sensors) instructions per call {} (gross {}, timer overhead {} subtracted; {} steps, {} in the backlash gap; 1 SysTick = {} instructions)",
+                            net * INSTRUCTIONS_PER_TICK / n,
+                            c.ticks * INSTRUCTIONS_PER_TICK / n,
+                            c.overhead_ticks * INSTRUCTIONS_PER_TICK / n,
+                            c.steps,
+                            c.steps_in_gap,
+                            INSTRUCTIONS_PER_TICK
+                        );
+                        let plant_net = c.plant_ticks.saturating_sub(c.overhead_ticks);
+                        hprintln!(
+                            "cost: Plant::step() instructions per call {} (gross {}, timer overhead subtracted; same {} steps replayed, replay identical: {})",
+                            plant_net * INSTRUCTIONS_PER_TICK / n,
+                            c.plant_ticks * INSTRUCTIONS_PER_TICK / n,
+                            c.steps,
+                            c.replay_identical
+                        );
+                        let ev = u64::from(c.plant_event_steps.max(1));
+                        let quiet = u64::from((c.steps - c.plant_event_steps).max(1));
+                        hprintln!(
+                            "cost: Plant::step() by kind: {} steps with a contact change average {} instructions, the other {} average {}",
+                            c.plant_event_steps,
+                            c.plant_event_ticks * INSTRUCTIONS_PER_TICK / ev,
+                            c.steps - c.plant_event_steps,
+                            (c.plant_ticks - c.plant_event_ticks) * INSTRUCTIONS_PER_TICK / quiet
+                        );
+                        hprintln!(
+                            "cost: RAM size_of Plant {} B, PlantState {} B, VirtualActuator {} B",
+                            core::mem::size_of::<Plant>(),
+                            core::mem::size_of::<PlantState>(),
+                            core::mem::size_of::<VirtualActuator>()
+                        );
+                        fig.ok() && c.replay_identical
+                    }
+                    None => false,
+                }
+            }
+            None => false,
+        };
+        debug::exit(if ok {
+            debug::EXIT_SUCCESS
+        } else {
+            debug::EXIT_FAILURE
+        });
+        loop {}
+    }
+}
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    match fin_loop::run(&mut |a| println!("{a}"), None) {
+        Some((fig, _)) if fig.ok() => {}
+        _ => std::process::exit(1),
+    }
+}
