@@ -25,6 +25,7 @@
 //! # Ok::<(), geared_servo::ParamError>(())
 //! ```
 
+use crate::faults::ActuatorFaults;
 use crate::hal::{Dir, Drive, DriveConfig, DutyError, Pwm};
 use crate::sensors::{Physical, Readings, SensorConfig, Sensors};
 use crate::{Outputs, ParamError, Plant, PlantState};
@@ -39,6 +40,7 @@ pub struct VirtualActuator {
     sensors: Sensors,
     outputs: Outputs,
     steps: u32,
+    faults: ActuatorFaults,
 }
 
 /// Shows the step count, state, bridge and readings (the plant's matrices are left out).
@@ -92,6 +94,7 @@ impl VirtualActuator {
             state,
             outputs,
             steps: 0,
+            faults: ActuatorFaults::NONE,
         })
     }
 
@@ -99,10 +102,39 @@ impl VirtualActuator {
     /// Never fails, never allocates.
     #[inline]
     pub fn step(&mut self) -> &Readings {
-        self.outputs = self.plant.step(&mut self.state, self.drive.voltage_v());
-        self.sensors.sample(&self.outputs);
+        if self.faults == ActuatorFaults::NONE {
+            self.outputs = self.plant.step(&mut self.state, self.drive.voltage_v());
+            self.sensors.sample(&self.outputs);
+        } else {
+            let f = &self.faults;
+            let v = match f.pwm_stuck {
+                Some(duty) => self.drive.voltage_for_signed_duty(duty),
+                None => self.drive.voltage_v(),
+            };
+            let bus = if f.bus_factor.is_finite() {
+                f.bus_factor.clamp(0.0, 10.0)
+            } else {
+                1.0
+            };
+            self.outputs = self
+                .plant
+                .step_with_faults(&mut self.state, v * bus, &f.plant);
+            self.sensors.sample_faulty(&self.outputs, f);
+        }
         self.steps = self.steps.wrapping_add(1);
         self.sensors.readings()
+    }
+
+    /// Puts `faults` in force from the next [`VirtualActuator::step`] on (see
+    /// [`crate::scenario::Scenario`] for timed schedules). Any value is accepted: out-of-range
+    /// numbers are clamped to their physical range when used.
+    pub fn set_faults(&mut self, faults: &ActuatorFaults) {
+        self.faults = *faults;
+    }
+
+    /// The faults in force.
+    pub fn faults(&self) -> &ActuatorFaults {
+        &self.faults
     }
 
     /// The latest sensor readings (what firmware may look at).

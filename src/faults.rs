@@ -83,3 +83,111 @@ impl Default for PlantFaults {
         PlantFaults::NONE
     }
 }
+
+/// A fault of one sensor channel, as the firmware would see it in the channel's counts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SensorFault {
+    /// Healthy.
+    None,
+    /// Reads this many counts whatever the input (clamped to the channel's range).
+    StuckAt(i32),
+    /// Adds this many counts.
+    Offset(i32),
+    /// Relative error of the sensitivity: the physical value is scaled by `1 + drift`
+    /// before conversion (0.1 = reads 10 % high).
+    GainDrift(f32),
+    /// Reads zero (`false`) or full scale (`true`; for the encoder, `i32::MAX`).
+    Dropout(bool),
+    /// Adds uniform noise of this peak, counts (deterministic, from the sensors' seed).
+    NoiseBurst(f32),
+    /// The lowest this-many bits read as zero.
+    LostLsbs(u8),
+}
+
+/// Faults of the whole virtual actuator: plant, sensors, bridge.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ActuatorFaults {
+    /// Mechanics and winding.
+    pub plant: PlantFaults,
+    /// Tachometer ADC channel.
+    pub tach: SensorFault,
+    /// Load potentiometer ADC channel.
+    pub pot: SensorFault,
+    /// Quadrature encoder count.
+    pub encoder: SensorFault,
+    /// Factor on the bridge's bus voltage (1 = nominal; 0.7 = a 30 % sag).
+    pub bus_factor: f32,
+    /// The bridge ignores duty commands and applies this signed duty, counts.
+    pub pwm_stuck: Option<i32>,
+}
+
+impl ActuatorFaults {
+    /// No fault anywhere.
+    pub const NONE: ActuatorFaults = ActuatorFaults {
+        plant: PlantFaults::NONE,
+        tach: SensorFault::None,
+        pot: SensorFault::None,
+        encoder: SensorFault::None,
+        bus_factor: 1.0,
+        pwm_stuck: None,
+    };
+
+    /// Whether any sensor or bridge fault (beyond the plant's) is set.
+    pub fn has_io_faults(&self) -> bool {
+        self.tach != SensorFault::None
+            || self.pot != SensorFault::None
+            || self.encoder != SensorFault::None
+            || self.bus_factor != 1.0
+            || self.pwm_stuck.is_some()
+    }
+}
+
+impl Default for ActuatorFaults {
+    fn default() -> Self {
+        ActuatorFaults::NONE
+    }
+}
+
+impl SensorFault {
+    /// Applies the post-conversion part of the fault to `counts` within `[lo, hi]`;
+    /// `noise` is a uniform sample in [−1, 1). Never panics, whatever the values.
+    pub fn apply_counts(&self, counts: i64, lo: i64, hi: i64, noise: f32) -> i64 {
+        let c = match *self {
+            SensorFault::None | SensorFault::GainDrift(_) => counts,
+            SensorFault::StuckAt(v) => i64::from(v),
+            SensorFault::Offset(d) => counts.saturating_add(i64::from(d)),
+            SensorFault::Dropout(full) => {
+                if full {
+                    hi
+                } else {
+                    0
+                }
+            }
+            SensorFault::NoiseBurst(peak) => {
+                let n = if peak.is_finite() {
+                    peak.clamp(0.0, 1.0e9) * noise
+                } else {
+                    0.0
+                };
+                // Round half away from zero without a library call; `as` saturates.
+                let r = if n >= 0.0 { n + 0.5 } else { n - 0.5 };
+                counts.saturating_add(r as i64)
+            }
+            SensorFault::LostLsbs(bits) => {
+                let mask = if bits >= 63 { 0 } else { !((1i64 << bits) - 1) };
+                counts & mask
+            }
+        };
+        c.clamp(lo, hi)
+    }
+
+    /// The pre-conversion scale of the physical value (1 unless [`SensorFault::GainDrift`]).
+    pub fn gain(&self) -> f32 {
+        match *self {
+            SensorFault::GainDrift(g) if g.is_finite() => 1.0 + g.clamp(-1.0, 1.0e3),
+            _ => 1.0,
+        }
+    }
+}

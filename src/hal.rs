@@ -118,6 +118,14 @@ impl Drive {
         }
     }
 
+    /// The voltage the bridge would apply at signed duty `duty` (counts, clamped to
+    /// ±max_duty), V: what a PWM output stuck at that duty gives.
+    pub fn voltage_for_signed_duty(&self, duty: i32) -> f32 {
+        let max = i32::from(self.max_duty);
+        let d = duty.clamp(-max, max);
+        self.bus_voltage_v * d as f32 / max as f32
+    }
+
     /// Duty now latched, counts (0..=max_duty).
     pub fn duty(&self) -> u16 {
         self.duty

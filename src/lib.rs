@@ -27,7 +27,7 @@ pub mod trace;
 
 pub use actuator::{Parts, VirtualActuator};
 pub use error::ParamError;
-pub use faults::{BrokenTooth, Jam, PlantFaults, Winding};
+pub use faults::{ActuatorFaults, BrokenTooth, Jam, PlantFaults, SensorFault, Winding};
 pub use hal::{Drive, DriveConfig, DutyError};
 pub use params::{
     ActuatorParams, Derived, Effects, GearTrain, LoadParams, MotorParams, Shaft, Stiffness,

@@ -6,7 +6,7 @@
 //! Each step, [`Scenario::advance`] fires the events due at that step, in the order they were
 //! scheduled, and returns the faults in force.
 
-use crate::faults::{BrokenTooth, Jam, PlantFaults, Winding};
+use crate::faults::{ActuatorFaults, BrokenTooth, Jam, SensorFault, Winding};
 
 /// Shape of an external torque on the load over time.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -66,6 +66,24 @@ pub enum Fault {
     BrokenTooth(Option<BrokenTooth>),
     /// State of the winding ([`Winding::Normal`] clears).
     Winding(Winding),
+    /// A fault of one sensor channel ([`SensorFault::None`] clears).
+    Sensor(SensorChannel, SensorFault),
+    /// Factor on the bridge's bus voltage (1 clears).
+    BusSag(f32),
+    /// The bridge applies this signed duty whatever is commanded (`None` clears).
+    PwmStuck(Option<i32>),
+}
+
+/// Which sensor a [`Fault::Sensor`] affects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SensorChannel {
+    /// Tachometer ADC.
+    Tach,
+    /// Load potentiometer ADC.
+    Pot,
+    /// Quadrature encoder.
+    Encoder,
 }
 
 /// An event: `fault` takes effect from step `step` on (counted from 0, the first step).
@@ -108,7 +126,7 @@ impl core::error::Error for ScenarioError {}
 pub struct Scenario<const N: usize> {
     events: heapless::Vec<Event, N>,
     next: usize,
-    faults: PlantFaults,
+    faults: ActuatorFaults,
     torque: Option<(TorqueProfile, u32)>,
 }
 
@@ -124,7 +142,7 @@ impl<const N: usize> Scenario<N> {
         Scenario {
             events: heapless::Vec::new(),
             next: 0,
-            faults: PlantFaults::NONE,
+            faults: ActuatorFaults::NONE,
             torque: None,
         }
     }
@@ -137,8 +155,10 @@ impl<const N: usize> Scenario<N> {
                 return Err(ScenarioError::OutOfOrder);
             }
         }
-        let same_kind =
-            |a: &Fault, b: &Fault| core::mem::discriminant(a) == core::mem::discriminant(b);
+        let same_kind = |a: &Fault, b: &Fault| match (a, b) {
+            (Fault::Sensor(ca, _), Fault::Sensor(cb, _)) => ca == cb,
+            _ => core::mem::discriminant(a) == core::mem::discriminant(b),
+        };
         let clears_torque = |a: &Fault, b: &Fault| {
             matches!(
                 (a, b),
@@ -164,14 +184,14 @@ impl<const N: usize> Scenario<N> {
     /// Back to step 0 with no fault in force; the schedule is kept.
     pub fn rewind(&mut self) {
         self.next = 0;
-        self.faults = PlantFaults::NONE;
+        self.faults = ActuatorFaults::NONE;
         self.torque = None;
     }
 
     /// Fires every event due at `step` (in order) and returns the faults in force for the
     /// step `step`. Call once per step with increasing steps; an event whose step was skipped
     /// fires at the next call.
-    pub fn advance(&mut self, step: u32) -> &PlantFaults {
+    pub fn advance(&mut self, step: u32) -> &ActuatorFaults {
         while let Some(e) = self.events.get(self.next) {
             if e.step > step {
                 break;
@@ -181,18 +201,19 @@ impl<const N: usize> Scenario<N> {
             self.next += 1;
         }
         if let Some((profile, start)) = self.torque {
-            self.faults.load_torque_nm = profile.at(step.saturating_sub(start));
+            self.faults.plant.load_torque_nm = profile.at(step.saturating_sub(start));
         }
         &self.faults
     }
 
     /// Faults in force after the last [`Scenario::advance`].
-    pub fn faults(&self) -> &PlantFaults {
+    pub fn faults(&self) -> &ActuatorFaults {
         &self.faults
     }
 
     fn apply(&mut self, e: Event) {
-        let f = &mut self.faults;
+        let a = &mut self.faults;
+        let f = &mut a.plant;
         match e.fault {
             Fault::LoadTorque(p) => self.torque = Some((p, e.step)),
             Fault::ClearLoadTorque => {
@@ -204,6 +225,11 @@ impl<const N: usize> Scenario<N> {
             Fault::FrictionFactor(k) => f.friction_factor = k,
             Fault::BrokenTooth(t) => f.broken_tooth = t,
             Fault::Winding(w) => f.winding = w,
+            Fault::Sensor(SensorChannel::Tach, s) => a.tach = s,
+            Fault::Sensor(SensorChannel::Pot, s) => a.pot = s,
+            Fault::Sensor(SensorChannel::Encoder, s) => a.encoder = s,
+            Fault::BusSag(k) => a.bus_factor = k,
+            Fault::PwmStuck(d) => a.pwm_stuck = d,
         }
     }
 }
@@ -218,13 +244,13 @@ mod tests {
         s.push(2, Fault::Jam(Jam::Here)).unwrap();
         s.push(2, Fault::FrictionFactor(2.0)).unwrap();
         s.push(5, Fault::Jam(Jam::None)).unwrap();
-        assert_eq!(s.advance(0).jam, Jam::None);
-        assert_eq!(s.advance(1).jam, Jam::None);
-        let f = *s.advance(2);
+        assert_eq!(s.advance(0).plant.jam, Jam::None);
+        assert_eq!(s.advance(1).plant.jam, Jam::None);
+        let f = s.advance(2).plant;
         assert_eq!((f.jam, f.friction_factor), (Jam::Here, 2.0));
-        assert_eq!(s.advance(4).jam, Jam::Here);
-        assert_eq!(s.advance(5).jam, Jam::None);
-        assert_eq!(s.advance(5).friction_factor, 2.0);
+        assert_eq!(s.advance(4).plant.jam, Jam::Here);
+        assert_eq!(s.advance(5).plant.jam, Jam::None);
+        assert_eq!(s.advance(5).plant.friction_factor, 2.0);
     }
 
     #[test]
@@ -254,9 +280,9 @@ mod tests {
             }),
         )
         .unwrap();
-        assert_eq!(s.advance(9).load_torque_nm, 0.0);
-        assert_eq!(s.advance(10).load_torque_nm, 0.0);
-        assert!((s.advance(20).load_torque_nm - 2.0).abs() < 1e-6);
-        assert_eq!(s.advance(30).load_torque_nm, 0.0);
+        assert_eq!(s.advance(9).plant.load_torque_nm, 0.0);
+        assert_eq!(s.advance(10).plant.load_torque_nm, 0.0);
+        assert!((s.advance(20).plant.load_torque_nm - 2.0).abs() < 1e-6);
+        assert_eq!(s.advance(30).plant.load_torque_nm, 0.0);
     }
 }

@@ -18,6 +18,7 @@
 
 use fixed::types::I16F16;
 
+use crate::faults::{ActuatorFaults, SensorFault};
 use crate::{math, Outputs, ParamError};
 
 /// Converts `x` to Q16.16, rounding to nearest (ties away from zero), saturating at
@@ -324,6 +325,8 @@ pub struct Sensors {
     last_angle_rad: f32,
     /// Fraction of a count accumulated since the last edge, in [0, 1).
     fraction: f32,
+    /// Encoder count as the shaft turned (what a healthy encoder reads).
+    true_count: i32,
     readings: Readings,
 }
 
@@ -340,6 +343,7 @@ impl Sensors {
             pot_counts_per_rad: config.pot.counts_per_unit(),
             last_angle_rad: 0.0,
             fraction: 0.0,
+            true_count: 0,
             readings: Readings::default(),
         };
         s.last_angle_rad = s.encoder_angle(now);
@@ -377,16 +381,30 @@ impl Sensors {
 
     /// Converts the plant outputs `o` into new readings.
     pub fn sample(&mut self, o: &Outputs) {
+        self.sample_faulty(o, &ActuatorFaults::NONE);
+    }
+
+    /// [`Sensors::sample`] with the sensor faults of `f` (a fault changes what is read,
+    /// not what is measured: the encoder keeps counting underneath, so a cleared fault reads
+    /// the true count again).
+    pub fn sample_faulty(&mut self, o: &Outputs, faults: &ActuatorFaults) {
+        let fl = faults;
         let n_tach = self.noise(self.config.tach.noise_lsb);
         let n_pot = self.noise(self.config.pot.noise_lsb);
+        let tach = self.config.tach.convert_scaled(
+            self.tach_counts_per_v,
+            o.tach_voltage_v * fl.tach.gain(),
+            n_tach,
+        );
+        let pot = self.config.pot.convert_scaled(
+            self.pot_counts_per_rad,
+            o.load_angle_rad * fl.pot.gain(),
+            n_pot,
+        );
         self.readings.tach_counts =
-            self.config
-                .tach
-                .convert_scaled(self.tach_counts_per_v, o.tach_voltage_v, n_tach);
+            self.faulty_adc(&fl.tach, tach, self.config.tach.full_scale_counts());
         self.readings.pot_counts =
-            self.config
-                .pot
-                .convert_scaled(self.pot_counts_per_rad, o.load_angle_rad, n_pot);
+            self.faulty_adc(&fl.pot, pot, self.config.pot.full_scale_counts());
 
         let angle = self.encoder_angle(o);
         let f = self.fraction + (angle - self.last_angle_rad) * self.counts_per_rad;
@@ -402,6 +420,34 @@ impl Sensors {
         } else {
             0.0
         };
-        self.readings.encoder_count = self.readings.encoder_count.wrapping_add(whole);
+        self.true_count = self.true_count.wrapping_add(whole);
+        let enc = faults.encoder;
+        self.readings.encoder_count = if enc == SensorFault::None {
+            self.true_count
+        } else {
+            let base = if enc.gain() == 1.0 {
+                i64::from(self.true_count)
+            } else {
+                (self.true_count as f32 * enc.gain()) as i64
+            };
+            let noise = if matches!(enc, SensorFault::NoiseBurst(_)) {
+                self.rng.next_signed_unit()
+            } else {
+                0.0
+            };
+            enc.apply_counts(base, i64::from(i32::MIN), i64::from(i32::MAX), noise) as i32
+        };
+    }
+
+    fn faulty_adc(&mut self, fault: &SensorFault, counts: u16, full: u16) -> u16 {
+        if *fault == SensorFault::None {
+            return counts;
+        }
+        let noise = if matches!(fault, SensorFault::NoiseBurst(_)) {
+            self.rng.next_signed_unit()
+        } else {
+            0.0
+        };
+        fault.apply_counts(i64::from(counts), 0, i64::from(full), noise) as u16
     }
 }

@@ -27,6 +27,8 @@ fn bad_scenarios_are_clear_errors() {
         ("[[event]]\nat_s = 0.1\napply = \"jam\"\nclear = \"jam\"\n", "not both"),
         ("[[event]]\nat_s = 0.1\napply = \"jam\"\nspeed = 3\n", "unknown field `speed`"),
         ("[[event]]\nat_s = \"soon\"\napply = \"jam\"\n", "line 2"),
+        ("[[event]]\nat_s = 0.1\napply = \"tach_dropout\"\nlevel = \"half\"\n", "`level` = `half`"),
+        ("[[event]]\nat_s = 0.1\napply = \"tach_stuck\"\ncounts = 5\n[[event]]\nat_s = 0.2\napply = \"tach_offset\"\ncounts = 5\n", "overlaps the tach fault applied by event 1"),
         ("[[event]]\nat_s = 0.1\napply = \"broken_tooth\"\nangle_deg = 0\nwidth_deg = 3\ntorque_loss = 2\n", "`torque_loss` must be within 0–1"),
     ];
     for (text, want) in cases {
@@ -91,7 +93,7 @@ fn a_schedule_fires_each_event_at_its_step() {
     let seen: Vec<(f32, f32)> = (0..10)
         .map(|k| {
             let f = s.advance(k);
-            (f.friction_factor, f.load_torque_nm)
+            (f.plant.friction_factor, f.plant.load_torque_nm)
         })
         .collect();
     for (k, (ff, t)) in seen.into_iter().enumerate() {
@@ -99,4 +101,33 @@ fn a_schedule_fires_each_event_at_its_step() {
         assert_eq!(ff, if on { 2.0 } else { 1.0 }, "step {k}");
         assert_eq!(t, if on { 0.1 } else { 0.0 }, "step {k}");
     }
+}
+
+#[test]
+fn sensor_faults_parse_per_channel_and_simulate_refuses_them() {
+    use geared_servo::host::scenario_file::has_io_faults;
+    use geared_servo::SensorFault;
+    let text = "[[event]]\nat_s = 0.1\napply = \"tach_dropout\"\n[[event]]\nat_s = 0.1\napply = \"pot_lost_lsbs\"\nbits = 4\n\
+[[event]]\nat_s = 0.2\nclear = \"tach_dropout\"\n[[event]]\nat_s = 0.3\napply = \"bus_sag\"\nfactor = 0.7\n";
+    let mut sc = parse(text, "f.toml", DT, 2000).unwrap();
+    assert_eq!(has_io_faults(&sc), Some(0));
+    let f = *sc.advance(200);
+    assert_eq!(
+        (f.tach, f.pot),
+        (SensorFault::Dropout(false), SensorFault::LostLsbs(4))
+    );
+    let f = *sc.advance(600);
+    assert_eq!(
+        (f.tach, f.pot, f.bus_factor),
+        (SensorFault::None, SensorFault::LostLsbs(4), 0.7)
+    );
+    // A bus sag alone is fine for simulate (it scales the applied voltage).
+    let only_sag = parse(
+        "[[event]]\nat_s = 0.3\napply = \"bus_sag\"\nfactor = 0.5\n",
+        "f.toml",
+        DT,
+        2000,
+    )
+    .unwrap();
+    assert_eq!(has_io_faults(&only_sag), None);
 }

@@ -189,7 +189,10 @@ pub fn simulate_with_scenario(
         o = match scenario.as_deref_mut() {
             Some(sc) => {
                 let f = *sc.advance(k as u32);
-                plant.step_with_faults(&mut st, v as f32, &f)
+                // Bus sag scales the applied voltage; sensor and PWM faults were refused
+                // when the scenario was read (simulate has no sensors or bridge).
+                let bus = f.bus_factor.clamp(0.0, 10.0);
+                plant.step_with_faults(&mut st, v as f32 * bus, &f.plant)
             }
             None => plant.step(&mut st, v as f32),
         };
@@ -216,7 +219,17 @@ fn simulate(
         &format!("{} (sample period of the record)", input.display()),
     )?;
     let mut sc = match scenario {
-        Some(path) => Some(scenario_file::load(path, rec.sample_period_s, rec.len())?),
+        Some(path) => {
+            let sc = scenario_file::load(path, rec.sample_period_s, rec.len())?;
+            if let Some(i) = scenario_file::has_io_faults(&sc) {
+                return Err(HostError::input(format!(
+                    "{}: event {}: sensor and PWM faults act on the virtual actuator's sensors and bridge; `simulate` writes the plant's physical outputs from a voltage record",
+                    path.display(),
+                    i + 1
+                )));
+            }
+            Some(sc)
+        }
         None => None,
     };
     let cols = simulate_with_scenario(&p, rec.sample_period_s, &rec.motor_voltage_v, sc.as_mut())?;

@@ -20,11 +20,16 @@
 //!
 //! Faults: `load_torque` (profile, amplitude_nm, duration_s), `jam` (angle_deg optional),
 //! `backlash_wear` (extra_deg), `friction_factor` (factor), `broken_tooth` (angle_deg,
-//! width_deg, torque_loss), `open_winding`, `shorted_winding`.
+//! width_deg, torque_loss), `open_winding`, `shorted_winding`, `bus_sag` (factor on the bus
+//! voltage), `pwm_stuck` (duty, signed counts), and for each sensor `tach_`, `pot_`,
+//! `encoder_`: `…_stuck` (counts), `…_offset` (counts), `…_gain` (drift, relative),
+//! `…_dropout` (level = "zero" or "full"), `…_noise` (peak_counts), `…_lost_lsbs` (bits).
+//! Sensor faults and a stuck PWM act on the virtual actuator's sensors and bridge
+//! (`VirtualActuator`); `simulate`, which has neither, refuses them.
 
-use crate::faults::{BrokenTooth, Jam, Winding};
+use crate::faults::{BrokenTooth, Jam, SensorFault, Winding};
 use crate::host::error::HostError;
-use crate::scenario::{Fault, Scenario, ScenarioError, TorqueProfile};
+use crate::scenario::{Fault, Scenario, ScenarioError, SensorChannel, TorqueProfile};
 use serde::Deserialize;
 use std::path::Path;
 
@@ -55,9 +60,15 @@ struct EventT {
     factor: Option<f64>,
     width_deg: Option<f64>,
     torque_loss: Option<f64>,
+    counts: Option<i64>,
+    drift: Option<f64>,
+    level: Option<String>,
+    peak_counts: Option<f64>,
+    bits: Option<u8>,
+    duty: Option<i64>,
 }
 
-const FAULTS: [&str; 7] = [
+const FAULTS: [&str; 27] = [
     "load_torque",
     "jam",
     "backlash_wear",
@@ -65,7 +76,35 @@ const FAULTS: [&str; 7] = [
     "broken_tooth",
     "open_winding",
     "shorted_winding",
+    "bus_sag",
+    "pwm_stuck",
+    "tach_stuck",
+    "tach_offset",
+    "tach_gain",
+    "tach_dropout",
+    "tach_noise",
+    "tach_lost_lsbs",
+    "pot_stuck",
+    "pot_offset",
+    "pot_gain",
+    "pot_dropout",
+    "pot_noise",
+    "pot_lost_lsbs",
+    "encoder_stuck",
+    "encoder_offset",
+    "encoder_gain",
+    "encoder_dropout",
+    "encoder_noise",
+    "encoder_lost_lsbs",
 ];
+
+/// Index of the first sensor or bridge fault of a scenario, if any (those need the virtual
+/// actuator's sensors and bridge, not just the plant).
+pub fn has_io_faults(sc: &HostScenario) -> Option<usize> {
+    sc.events()
+        .iter()
+        .position(|e| matches!(e.fault, Fault::Sensor(..) | Fault::PwmStuck(_)))
+}
 
 /// Reads a scenario for a run of `steps` steps of `dt` seconds.
 pub fn load(path: &Path, dt: f64, steps: usize) -> Result<HostScenario, HostError> {
@@ -144,7 +183,10 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
                 "backlash_wear" => Fault::BacklashWear(0.0),
                 "friction_factor" => Fault::FrictionFactor(1.0),
                 "broken_tooth" => Fault::BrokenTooth(None),
-                _ => Fault::Winding(Winding::Normal),
+                "open_winding" | "shorted_winding" => Fault::Winding(Winding::Normal),
+                "bus_sag" => Fault::BusSag(1.0),
+                "pwm_stuck" => Fault::PwmStuck(None),
+                k => Fault::Sensor(channel(k), SensorFault::None),
             }
         } else {
             match kind {
@@ -203,12 +245,64 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
                     }))
                 }
                 "open_winding" => Fault::Winding(Winding::Open),
-                _ => Fault::Winding(Winding::Shorted),
+                "shorted_winding" => Fault::Winding(Winding::Shorted),
+                "bus_sag" => {
+                    let k = num(e.factor, "factor")?;
+                    if !(0.0..=10.0).contains(&k) {
+                        return Err(here("`factor` must be within 0–10".into()));
+                    }
+                    Fault::BusSag(k as f32)
+                }
+                "pwm_stuck" => {
+                    let d = e
+                        .duty
+                        .ok_or_else(|| here("`pwm_stuck` needs `duty`".into()))?;
+                    Fault::PwmStuck(Some(
+                        d.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+                    ))
+                }
+                k => {
+                    let what = k.split_once('_').map_or("", |(_, w)| w);
+                    let counts = |key: &str| -> Result<i32, HostError> {
+                        let c = e
+                            .counts
+                            .ok_or_else(|| here(format!("`{k}` needs `{key}`")))?;
+                        i32::try_from(c).map_err(|_| here(format!("`{key}` = {c} is out of range")))
+                    };
+                    let sf = match what {
+                        "stuck" => SensorFault::StuckAt(counts("counts")?),
+                        "offset" => SensorFault::Offset(counts("counts")?),
+                        "gain" => SensorFault::GainDrift(num(e.drift, "drift")? as f32),
+                        "dropout" => match e.level.as_deref().unwrap_or("zero") {
+                            "zero" => SensorFault::Dropout(false),
+                            "full" => SensorFault::Dropout(true),
+                            other => return Err(here(format!("`level` = `{other}` (zero, full)"))),
+                        },
+                        "noise" => {
+                            let p = num(e.peak_counts, "peak_counts")?;
+                            if p < 0.0 {
+                                return Err(here("`peak_counts` must be ≥ 0".into()));
+                            }
+                            SensorFault::NoiseBurst(p as f32)
+                        }
+                        _ => {
+                            let b = e.bits.ok_or_else(|| here(format!("`{k}` needs `bits`")))?;
+                            if b > 31 {
+                                return Err(here("`bits` must be at most 31".into()));
+                            }
+                            SensorFault::LostLsbs(b)
+                        }
+                    };
+                    Fault::Sensor(channel(k), sf)
+                }
             }
         };
         // Overlaps: a fault applied again, or the other winding fault, while one is in force.
         let group = match kind {
             "open_winding" | "shorted_winding" => "winding",
+            k if k.starts_with("tach_") => "tach",
+            k if k.starts_with("pot_") => "pot",
+            k if k.starts_with("encoder_") => "encoder",
             k => k,
         };
         if clearing {
@@ -217,7 +311,7 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
             return Err(here(format!(
                 "`{kind}` overlaps the {group} fault applied by event {since} (clear it first)"
             )));
-        } else if !matches!(kind, "backlash_wear" | "friction_factor") {
+        } else if !matches!(kind, "backlash_wear" | "friction_factor" | "bus_sag") {
             active.push((group, i + 1));
         }
         sc.push(step as u32, fault).map_err(|err| match err {
@@ -228,6 +322,16 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
         })?;
     }
     Ok(sc)
+}
+
+fn channel(kind: &str) -> SensorChannel {
+    if kind.starts_with("tach_") {
+        SensorChannel::Tach
+    } else if kind.starts_with("pot_") {
+        SensorChannel::Pot
+    } else {
+        SensorChannel::Encoder
+    }
 }
 
 fn line_of(text: &str, offset: usize) -> usize {
