@@ -27,7 +27,8 @@ fn run(
 #[test]
 fn each_sensor_fault_reads_as_it_says_and_reverts_when_cleared() {
     let full = (1u32 << SensorConfig::REFERENCE.tach.bits) - 1;
-    let cases: Vec<(&str, SensorFault, Box<dyn Fn(i64, i64) -> bool>)> = vec![
+    type Check = Box<dyn Fn(i64, i64) -> bool>;
+    let cases: Vec<(&str, SensorFault, Check)> = vec![
         (
             "stuck",
             SensorFault::StuckAt(1234),
