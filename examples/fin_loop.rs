@@ -3,6 +3,8 @@
 //! time, overshoot, steady-state and tracking error (compared with
 //! `examples/expected/fin_loop.txt`) and, on the target only, `cost:` lines: instructions per
 //! `step()` (SysTick under QEMU `-icount shift=0`, 40 instructions a tick) and RAM sizes.
+//! Then the same controller meets a fault scenario (tachometer dropout, gust, jam) and the
+//! tracking error and current per window are printed (`examples/expected/fin_faults.txt`).
 //! Exits non-zero if a figure is outside its bound.
 //!
 //! Target: `cargo run --release --example fin_loop --target thumbv7em-none-eabihf`
@@ -12,6 +14,9 @@
 
 #[path = "shared/fin_loop.rs"]
 mod fin_loop;
+
+#[path = "shared/fin_faults.rs"]
+mod fin_faults;
 
 #[cfg(target_os = "none")]
 mod bare {
@@ -77,7 +82,8 @@ mod bare {
                             core::mem::size_of::<PlantState>(),
                             core::mem::size_of::<VirtualActuator>()
                         );
-                        fig.ok() && c.replay_identical
+                        let faults_ok = super::fin_faults::run(&mut |a| hprintln!("{}", a));
+                        fig.ok() && c.replay_identical && faults_ok
                     }
                     None => false,
                 }
@@ -95,8 +101,10 @@ mod bare {
 
 #[cfg(not(target_os = "none"))]
 fn main() {
-    match fin_loop::run(&mut |a| println!("{a}"), None) {
-        Some((fig, _)) if fig.ok() => {}
-        _ => std::process::exit(1),
+    let nominal =
+        matches!(fin_loop::run(&mut |a| println!("{a}"), None), Some((fig, _)) if fig.ok());
+    let faults = fin_faults::run(&mut |a| println!("{a}"));
+    if !(nominal && faults) {
+        std::process::exit(1);
     }
 }

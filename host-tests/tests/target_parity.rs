@@ -22,3 +22,21 @@ fn plant_smoke_host_run_matches_the_expected_target_output() {
     }));
     assert_eq!(out, expected("plant_smoke.txt"));
 }
+
+#[path = "../../examples/shared/fin_loop.rs"]
+#[allow(dead_code)]
+mod fin_loop;
+
+#[path = "../../examples/shared/fin_faults.rs"]
+mod fin_faults;
+
+#[test]
+fn fin_fault_scenario_host_run_matches_the_expected_target_output() {
+    let mut out = String::new();
+    let ok = fin_faults::run(&mut |a| {
+        out.push_str(&a.to_string());
+        out.push('\n');
+    });
+    assert!(ok, "{out}");
+    assert_eq!(out, expected("fin_faults.txt"));
+}
