@@ -1,5 +1,6 @@
 //! The firmware-facing virtual actuator: plant, state, H-bridge and sensors in one value that
-//! firmware owns (a `static` behind [`crate::cortex_m::Shared`], or a local in `main`).
+//! firmware owns (a `static` behind `cortex_m::Shared` with the `cortex-m` feature, or a local
+//! in `main`).
 //!
 //! The control tick is: read [`VirtualActuator::readings`], write the bridge through
 //! [`VirtualActuator::pwm`] / [`VirtualActuator::dir`] (or [`VirtualActuator::parts`] for all
