@@ -10,14 +10,19 @@
     )
 )]
 
+pub mod analyser;
+pub mod describing;
 pub mod discretise;
 pub mod error;
+pub mod linear;
 pub mod math;
 pub mod params;
 pub mod plant;
 pub mod stiffness;
 
+pub use analyser::{Analyser, AnalyserConfig, Harmonic, Hold, Measurement};
 pub use error::ParamError;
+pub use linear::{Complex, LinearModel};
 pub use params::{
     ActuatorParams, Derived, Effects, GearTrain, LoadParams, MotorParams, Shaft, Stiffness,
     ToothGeometry, REFERENCE,

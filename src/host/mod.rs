@@ -3,6 +3,9 @@
 
 pub mod cli;
 pub mod error;
+pub mod fr;
+pub mod fr_cli;
+pub mod paper;
 pub mod params_file;
 pub mod record;
 
