@@ -28,6 +28,8 @@ pub struct SweepOptions {
     pub max_time_s: f64,
     /// Relative agreement of the blocks, –.
     pub rel_tol: f64,
+    /// Start each frequency on the linearised steady state (true) or from rest (false).
+    pub warm_start: bool,
 }
 
 impl Default for SweepOptions {
@@ -38,8 +40,9 @@ impl Default for SweepOptions {
             min_block_s: 0.02,
             warmup_blocks: 1,
             avg_blocks: 3,
-            max_time_s: 0.6,
+            max_time_s: 1.0,
             rel_tol: 1e-3,
+            warm_start: true,
         }
     }
 }
@@ -61,6 +64,8 @@ pub struct Point {
     pub settled: bool,
     /// Samples simulated.
     pub samples: u32,
+    /// Blocks averaged into the harmonics.
+    pub blocks: u32,
 }
 
 impl Point {
@@ -141,7 +146,11 @@ impl Bench {
             ..probe
         };
         let a = Analyser::new(cfg, ABS_TOL).map_err(|e| bad(e.0))?;
-        let start = self.warm.steady_state(freq_hz, o.vpk);
+        let start = if o.warm_start {
+            self.warm.steady_state(freq_hz, o.vpk)
+        } else {
+            crate::PlantState::REST
+        };
         let m = analyser::measure(&self.plant, &drive, &a, o.vpk, o.hold, start);
         let [tach, current] = m.channels;
         Ok(Point {
@@ -150,6 +159,7 @@ impl Bench {
             current,
             settled: m.settled,
             samples: m.samples,
+            blocks: m.blocks_averaged,
         })
     }
 
@@ -193,8 +203,9 @@ pub fn grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>, HostError> {
 pub struct Located {
     /// Best estimate, Hz.
     pub freq_hz: f64,
-    /// Lowest and highest frequency (Hz) among the simulated points whose value is within
-    /// two spreads of the extremum: how blurred the feature is.
+    /// Lowest and highest frequency (Hz) of the contiguous run of simulated points around the
+    /// extremum whose values are within two standard errors (block spread / √blocks) of it:
+    /// how blurred the feature is.
     pub band_hz: (f64, f64),
     /// Value there (|V_t/V_m| in V/V or |I/V_m| in A/V).
     pub value: f64,
@@ -309,14 +320,25 @@ fn refine(
         .copied()
         .ok_or_else(|| HostError::other("no point to refine"))?;
     let (v0, s0) = (value(&best), spread(&best));
+    // The band: walk outwards from the best point along frequency while the points stay
+    // within two standard errors of it (a contiguous blur, not every noisy point of the sweep).
+    let mut pts: Vec<&Point> = seen.iter().filter(|p| p.freq_hz >= lo_limit).collect();
+    pts.sort_by(|x, y| x.freq_hz.total_cmp(&y.freq_hz));
+    pts.dedup_by(|x, y| x.freq_hz == y.freq_hz);
+    let near = |p: &Point| value(p) - 2.0 * spread(p) <= v0 + 2.0 * s0;
+    let ib = pts
+        .iter()
+        .position(|p| p.freq_hz == best.freq_hz)
+        .unwrap_or(0);
     let mut band = (best.freq_hz, best.freq_hz);
-    let mut settled = true;
-    for p in seen.iter().filter(|p| p.freq_hz >= lo_limit) {
-        if value(p) - 2.0 * spread(p) <= v0 + 2.0 * s0 {
-            band.0 = band.0.min(p.freq_hz);
-            band.1 = band.1.max(p.freq_hz);
-            settled &= p.settled;
-        }
+    let mut settled = best.settled;
+    for p in pts.iter().skip(ib + 1).take_while(|p| near(p)) {
+        band.1 = p.freq_hz;
+        settled &= p.settled;
+    }
+    for p in pts.iter().take(ib).rev().take_while(|p| near(p)) {
+        band.0 = p.freq_hz;
+        settled &= p.settled;
     }
     Ok((
         Located {
@@ -349,7 +371,7 @@ pub fn locate(
     let freqs = grid(lo.from_hz, lo.to_hz, lo.step_hz)?;
     let coarse = bench.sweep(&freqs, progress)?;
     let gain = |p: &Point| p.gain();
-    let gain_spread = |p: &Point| p.tach.spread;
+    let gain_spread = |p: &Point| p.tach.spread / f64::from(p.blocks.max(1)).sqrt();
     let i_ar = argmin_from(&coarse, 0, &gain).ok_or_else(|| HostError::input("empty grid"))?;
     let (ar, mut evals) = refine(
         bench,
@@ -364,7 +386,7 @@ pub fn locate(
     let (mut resonance, mut gain_peak) = (None, None);
     if lo.resonance && i_ar + 2 < coarse.len() {
         let cur = |p: &Point| p.current_gain();
-        let cur_spread = |p: &Point| p.current.spread;
+        let cur_spread = |p: &Point| p.current.spread / f64::from(p.blocks.max(1)).sqrt();
         if let Some(i) = argmin_from(&coarse, i_ar + 1, &cur) {
             let (r, e) = refine(bench, &coarse, i, lo.tol_hz, &cur, &cur_spread, ar.freq_hz)?;
             evals += e;

@@ -29,8 +29,12 @@ pub struct MeasureArgs {
     #[arg(long, value_enum, default_value_t = HoldArg::Continuous)]
     pub hold: HoldArg,
     /// Longest simulated time per frequency when the response does not settle, s.
-    #[arg(long, default_value_t = 0.6, value_name = "S")]
+    #[arg(long, default_value_t = 1.0, value_name = "S")]
     pub max_time_s: f64,
+    /// Start every frequency from rest instead of the linearised steady state (slower to
+    /// settle; with backlash it may land on another branch of the response).
+    #[arg(long)]
+    pub cold_start: bool,
 }
 
 impl MeasureArgs {
@@ -49,6 +53,7 @@ impl MeasureArgs {
                 HoldArg::Zoh => Hold::Zoh,
             },
             max_time_s: self.max_time_s,
+            warm_start: !self.cold_start,
             ..SweepOptions::default()
         })
     }

@@ -7,6 +7,7 @@ pub mod fr;
 pub mod fr_cli;
 pub mod paper;
 pub mod params_file;
+pub mod plots;
 pub mod record;
 
 pub use error::{ErrorKind, HostError};
