@@ -121,6 +121,15 @@ pub fn predict_feature(model: &LinearModel, delta: f64, vpk: f64, which: Feature
     }
 }
 
+/// The linear model a stepped-sine measurement at `vpk` (V) starts from (see
+/// [`LinearModel::steady_state`]): the plant with the describing-function stiffness at the
+/// anti-resonance. Exact without backlash; an initial guess that shortens the transient
+/// otherwise.
+pub fn warm_start_model(params: &ActuatorParams, vpk: f64) -> Result<LinearModel, ParamError> {
+    let df = predict(params, vpk)?;
+    Ok(LinearModel::new(params)?.with_k(df.anti_resonance.k_eff_nm_per_rad.max(1e-9)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

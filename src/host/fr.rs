@@ -3,7 +3,7 @@
 //! `max-backlash` / `min-voltage`. Every simulated point runs the `no_std`
 //! [`crate::analyser::measure`], the same code the firmware example runs on target.
 
-use crate::analyser::{self, Analyser, AnalyserConfig, Harmonic, Hold, CHANNELS};
+use crate::analyser::{self, Harmonic, Hold, SweepSettings};
 use crate::describing;
 use crate::host::error::HostError;
 use crate::linear::LinearModel;
@@ -18,16 +18,8 @@ pub struct SweepOptions {
     pub vpk: f64,
     /// Continuous sine (paper) or zero-order hold (firmware).
     pub hold: Hold,
-    /// Shortest block, s (whole periods, at least one).
-    pub min_block_s: f64,
-    /// Blocks discarded first.
-    pub warmup_blocks: u32,
-    /// Blocks that must agree.
-    pub avg_blocks: u32,
-    /// Simulated time after which a point stops even if not settled, s.
-    pub max_time_s: f64,
-    /// Relative agreement of the blocks, –.
-    pub rel_tol: f64,
+    /// Analyser settings.
+    pub settings: SweepSettings,
     /// Start each frequency on the linearised steady state (true) or from rest (false).
     pub warm_start: bool,
 }
@@ -37,19 +29,11 @@ impl Default for SweepOptions {
         SweepOptions {
             vpk: 10.0,
             hold: Hold::Continuous,
-            min_block_s: 0.02,
-            warmup_blocks: 1,
-            avg_blocks: 3,
-            max_time_s: 1.0,
-            rel_tol: 1e-3,
+            settings: SweepSettings::DEFAULT,
             warm_start: true,
         }
     }
 }
-
-/// Absolute agreement per channel: 1e-4 V/V on `V_t/V_m` (−80 dB, far below any notch the
-/// plots resolve) and 3e-6 A/V on `I/V_m` (1e-4 of the stalled-motor 1/R).
-pub const ABS_TOL: [f64; CHANNELS] = [1e-4, 3e-6];
 
 /// One simulated frequency.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -102,10 +86,7 @@ impl Bench {
             )));
         }
         let plant = Plant::new(params).map_err(param_err)?;
-        let df = describing::predict(params, opts.vpk).map_err(param_err)?;
-        let warm = LinearModel::new(params)
-            .map_err(param_err)?
-            .with_k(df.anti_resonance.k_eff_nm_per_rad.max(1e-9));
+        let warm = describing::warm_start_model(params, opts.vpk).map_err(param_err)?;
         Ok(Bench {
             params: *params,
             plant,
@@ -129,23 +110,7 @@ impl Bench {
             ))
         };
         let drive = SineDrive::new(&self.params, freq_hz).map_err(param_err)?;
-        let probe = AnalyserConfig {
-            freq_hz,
-            sample_period_s: h,
-            min_block_s: o.min_block_s,
-            warmup_blocks: o.warmup_blocks,
-            avg_blocks: o.avg_blocks,
-            max_blocks: o.warmup_blocks + o.avg_blocks,
-            rel_tol: o.rel_tol,
-        };
-        let a = Analyser::new(probe, ABS_TOL).map_err(|e| bad(e.0))?;
-        let block_s = f64::from(a.block_samples()) * h;
-        let cap = libm::ceil(o.max_time_s / block_s) as u32;
-        let cfg = AnalyserConfig {
-            max_blocks: cap.max(probe.max_blocks),
-            ..probe
-        };
-        let a = Analyser::new(cfg, ABS_TOL).map_err(|e| bad(e.0))?;
+        let a = analyser::for_sweep(freq_hz, h, &o.settings).map_err(|e| bad(e.0))?;
         let start = if o.warm_start {
             self.warm.steady_state(freq_hz, o.vpk)
         } else {
@@ -211,6 +176,9 @@ pub struct Located {
     pub value: f64,
     /// All the points used settled.
     pub settled: bool,
+    /// The extremum sat at an end of the coarse grid: no feature found inside the range
+    /// (e.g. friction-dominated responses at a few volts, which have no notch).
+    pub at_edge: bool,
 }
 
 /// Where the anti-resonance and the resonance are on a simulated response.
@@ -346,6 +314,7 @@ fn refine(
             band_hz: band,
             value: v0,
             settled,
+            at_edge: i == 0 || i + 1 >= coarse.len(),
         },
         evaluations,
     ))
@@ -412,7 +381,8 @@ pub fn locate(
 }
 
 /// Simulated f_AR of `params` at `vpk`, Hz (coarse grid up to a little above the
-/// backlash-free f_AR, then refinement): what the design queries bisect on.
+/// backlash-free f_AR, then refinement): what the design queries bisect on. NaN when the
+/// response has no notch in that range (it then fails every bandwidth).
 pub fn f_ar(params: &ActuatorParams, opts: SweepOptions, tol_hz: f64) -> Result<f64, HostError> {
     let bench = Bench::new(params, opts)?;
     let f0 = params.derived().map_err(param_err)?.f_ar_hz;
@@ -423,7 +393,8 @@ pub fn f_ar(params: &ActuatorParams, opts: SweepOptions, tol_hz: f64) -> Result<
         tol_hz,
         resonance: false,
     };
-    Ok(locate(&bench, &lo, None)?.0.anti_resonance.freq_hz)
+    let ar = locate(&bench, &lo, None)?.0.anti_resonance;
+    Ok(if ar.at_edge { f64::NAN } else { ar.freq_hz })
 }
 
 /// Result of a bisection: the answer and the points evaluated on the way.
@@ -446,11 +417,11 @@ pub fn max_backlash(
     check_bandwidth(bandwidth_hz)?;
     let mut trace = Vec::new();
     let fa = |b: f64, trace: &mut Vec<(f64, f64)>| -> Result<f64, HostError> {
-        let f = f_ar(&params.with_backlash_deg(b), opts, 0.02)?;
+        let f = f_ar(&params.with_backlash_deg(b), opts, 0.002)?;
         trace.push((b, f));
         Ok(f)
     };
-    if fa(0.0, &mut trace)? < bandwidth_hz {
+    if !(fa(0.0, &mut trace)? >= bandwidth_hz) {
         return Err(HostError::input(format!(
             "even without backlash the simulated f_AR is below {bandwidth_hz} Hz"
         )));
@@ -488,12 +459,12 @@ pub fn min_voltage(
     check_bandwidth(bandwidth_hz)?;
     let mut trace = Vec::new();
     let fa = |v: f64, trace: &mut Vec<(f64, f64)>| -> Result<f64, HostError> {
-        let f = f_ar(params, SweepOptions { vpk: v, ..opts }, 0.02)?;
+        let f = f_ar(params, SweepOptions { vpk: v, ..opts }, 0.002)?;
         trace.push((v, f));
         Ok(f)
     };
     let (mut lo, mut hi) = (0.0, 1.0);
-    while fa(hi, &mut trace)? < bandwidth_hz {
+    while !(fa(hi, &mut trace)? >= bandwidth_hz) {
         lo = hi;
         hi *= 2.0;
         if hi > 1.0e4 {

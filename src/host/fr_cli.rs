@@ -52,9 +52,11 @@ impl MeasureArgs {
                 HoldArg::Continuous => Hold::Continuous,
                 HoldArg::Zoh => Hold::Zoh,
             },
-            max_time_s: self.max_time_s,
+            settings: crate::analyser::SweepSettings {
+                max_time_s: self.max_time_s,
+                ..crate::analyser::SweepSettings::DEFAULT
+            },
             warm_start: !self.cold_start,
-            ..SweepOptions::default()
         })
     }
 }
@@ -140,7 +142,7 @@ pub fn spread_db(spread: f64, gain: f64) -> f64 {
 fn located_json(l: &Option<Located>) -> Value {
     match l {
         Some(l) => json!({"freq_hz": l.freq_hz, "band_hz": [l.band_hz.0, l.band_hz.1],
-                          "settled": l.settled}),
+                          "settled": l.settled, "at_grid_edge": l.at_edge}),
         None => Value::Null,
     }
 }
@@ -186,11 +188,16 @@ pub fn resonances(
     });
     let fmt = |l: &Option<Located>| match l {
         Some(l) => format!(
-            "{:9.3} Hz  (band {:.3}..{:.3} Hz{})",
+            "{:9.3} Hz  (band {:.3}..{:.3} Hz{}{})",
             l.freq_hz,
             l.band_hz.0,
             l.band_hz.1,
-            if l.settled { "" } else { ", not settled" }
+            if l.settled { "" } else { ", not settled" },
+            if l.at_edge {
+                ", AT THE GRID EDGE: no feature in range"
+            } else {
+                ""
+            }
         ),
         None => "not found".to_string(),
     };
