@@ -15,6 +15,7 @@
 
 use crate::linear::Complex;
 use crate::plant::{Outputs, Plant, PlantState, SineDrive};
+use core::ops::{Add, Sub};
 
 /// Most blocks kept for the settling test.
 pub const RING: usize = 8;
@@ -423,6 +424,7 @@ pub fn measure(
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 

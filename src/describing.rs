@@ -131,6 +131,7 @@ pub fn warm_start_model(params: &ActuatorParams, vpk: f64) -> Result<LinearModel
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
     use crate::params::REFERENCE;

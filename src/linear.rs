@@ -17,6 +17,7 @@
 
 use crate::params::ActuatorParams;
 use crate::{ParamError, PlantState};
+use core::ops::{Add, Div, Mul, Sub};
 
 /// A complex number (f64), just what the phasor algebra needs.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
@@ -40,32 +41,45 @@ impl Complex {
     pub fn arg(self) -> f64 {
         libm::atan2(self.im, self.re)
     }
-    /// Product.
-    pub fn mul(self, o: Complex) -> Complex {
+    /// Real scale.
+    pub fn scale(self, a: f64) -> Complex {
+        Complex::new(self.re * a, self.im * a)
+    }
+}
+
+impl core::ops::Add for Complex {
+    type Output = Complex;
+    fn add(self, o: Complex) -> Complex {
+        Complex::new(self.re + o.re, self.im + o.im)
+    }
+}
+
+impl core::ops::Sub for Complex {
+    type Output = Complex;
+    fn sub(self, o: Complex) -> Complex {
+        Complex::new(self.re - o.re, self.im - o.im)
+    }
+}
+
+impl core::ops::Mul for Complex {
+    type Output = Complex;
+    fn mul(self, o: Complex) -> Complex {
         Complex::new(
             self.re * o.re - self.im * o.im,
             self.re * o.im + self.im * o.re,
         )
     }
-    /// Quotient (∞/NaN when `o` is 0).
-    pub fn div(self, o: Complex) -> Complex {
+}
+
+/// Quotient (∞/NaN when the divisor is 0).
+impl core::ops::Div for Complex {
+    type Output = Complex;
+    fn div(self, o: Complex) -> Complex {
         let d = o.re * o.re + o.im * o.im;
         Complex::new(
             (self.re * o.re + self.im * o.im) / d,
             (self.im * o.re - self.re * o.im) / d,
         )
-    }
-    /// Sum.
-    pub fn add(self, o: Complex) -> Complex {
-        Complex::new(self.re + o.re, self.im + o.im)
-    }
-    /// Difference.
-    pub fn sub(self, o: Complex) -> Complex {
-        Complex::new(self.re - o.re, self.im - o.im)
-    }
-    /// Real scale.
-    pub fn scale(self, a: f64) -> Complex {
-        Complex::new(self.re * a, self.im * a)
     }
 }
 
@@ -207,6 +221,7 @@ impl LinearModel {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
     use crate::params::REFERENCE;

@@ -96,10 +96,15 @@ impl Map {
             .zip(self.f_ar_hz.iter())
             .map(|(&v, row)| {
                 let cross = row
-                    .windows(2)
-                    .zip(self.backlash_deg.windows(2))
-                    .find(|(f, _)| f[0] >= level_hz && f[1] < level_hz)
-                    .map(|(f, b)| b[0] + (b[1] - b[0]) * (f[0] - level_hz) / (f[0] - f[1]));
+                    .iter()
+                    .zip(row.iter().skip(1))
+                    .zip(
+                        self.backlash_deg
+                            .iter()
+                            .zip(self.backlash_deg.iter().skip(1)),
+                    )
+                    .find(|((&f0, &f1), _)| f0 >= level_hz && f1 < level_hz)
+                    .map(|((&f0, &f1), (&b0, &b1))| b0 + (b1 - b0) * (f0 - level_hz) / (f0 - f1));
                 (v, cross)
             })
             .collect()

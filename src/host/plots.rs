@@ -292,8 +292,8 @@ fn colour(t: f64) -> RGBColor {
     let i = (t.floor() as usize).min(3);
     let f = t - i as f64;
     let (a, b) = (
-        STOPS.get(i).copied().unwrap_or(STOPS[0]),
-        STOPS.get(i + 1).copied().unwrap_or(STOPS[4]),
+        STOPS.get(i).copied().unwrap_or((0.0, 0.0, 0.0)),
+        STOPS.get(i + 1).copied().unwrap_or((255.0, 255.0, 255.0)),
     );
     let m = |x: f64, y: f64| (x + (y - x) * f).round() as u8;
     RGBColor(m(a.0, b.0), m(a.1, b.1), m(a.2, b.2))
@@ -336,7 +336,12 @@ fn fig6(d: &PaperData) -> Result<String, HostError> {
         // Cells: rows span halfway (geometrically) to their neighbours.
         let edges: Vec<f64> = {
             let mut e = vec![vlo * 0.9];
-            e.extend(m.vpk.windows(2).map(|w| (w[0] * w[1]).sqrt()));
+            e.extend(
+                m.vpk
+                    .iter()
+                    .zip(m.vpk.iter().skip(1))
+                    .map(|(a, b)| (a * b).sqrt()),
+            );
             e.push(vhi * 1.1);
             e
         };
