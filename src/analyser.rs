@@ -329,6 +329,8 @@ pub struct SweepSettings {
     pub max_time_s: f64,
     /// Relative agreement of the blocks, –.
     pub rel_tol: f64,
+    /// Absolute agreement per channel (V/V, A/V): what limits how deep a notch is resolved.
+    pub abs_tol: [f64; CHANNELS],
 }
 
 impl SweepSettings {
@@ -340,6 +342,7 @@ impl SweepSettings {
         avg_blocks: 3,
         max_time_s: 1.0,
         rel_tol: 1e-3,
+        abs_tol: ABS_TOL,
     };
 }
 
@@ -364,7 +367,7 @@ pub fn for_sweep(
         max_blocks: settings.warmup_blocks + settings.avg_blocks,
         rel_tol: settings.rel_tol,
     };
-    let a = Analyser::new(probe, ABS_TOL)?;
+    let a = Analyser::new(probe, settings.abs_tol)?;
     if !(settings.max_time_s.is_finite() && settings.max_time_s > 0.0) {
         return Err(ConfigError("max_time_s"));
     }
@@ -375,7 +378,7 @@ pub fn for_sweep(
             max_blocks: cap.max(probe.max_blocks),
             ..probe
         },
-        ABS_TOL,
+        settings.abs_tol,
     )
 }
 

@@ -280,3 +280,37 @@ fn on_target_analyser_output_matches_expected_file_and_host_sweep() {
         assert_eq!(cols[7], format!("{}", q.tach.phasor.im));
     }
 }
+
+#[test]
+fn zoh_hold_measures_the_sampled_system_whose_notch_is_about_1_hz_higher() {
+    // Driving through the zero-order hold (firmware) measures the sampled, held system. Its
+    // notch for the frictionless reference is at 128.607 Hz (exact alias sum, computed with
+    // the ZOH transfer function of plant_accuracy.rs), 1.02 Hz above eq. 17a. The warm start
+    // is the continuous steady state, not the held one, so the transient must die out: the
+    // notch is only ~1e-4 V/V deep (-80 dB), so the absolute settling tolerance is tightened
+    // 100-fold and up to 4 s are allowed. Tolerance as for the continuous drive: 0.05 Hz.
+    let p = REFERENCE.without_friction();
+    let bench = Bench::new(
+        &p,
+        SweepOptions {
+            hold: geared_servo::Hold::Zoh,
+            settings: geared_servo::analyser::SweepSettings {
+                abs_tol: [1e-6, 3e-8],
+                max_time_s: 4.0,
+                ..geared_servo::analyser::SweepSettings::DEFAULT
+            },
+            ..opts(10.0)
+        },
+    )
+    .unwrap();
+    let lo = LocateOptions {
+        resonance: false,
+        ..LocateOptions::default()
+    };
+    let f = fr::locate(&bench, &lo, None)
+        .unwrap()
+        .0
+        .anti_resonance
+        .freq_hz;
+    assert!((f - 128.607).abs() < 0.05, "ZOH notch {f}");
+}
