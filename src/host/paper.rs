@@ -456,6 +456,11 @@ fn summary(data: &PaperData) -> (String, Value) {
         "design_points": data.design.iter().map(|d| json!({
             "vpk": d.vpk, "max_backlash_deg": d.max_backlash_deg, "paper_deg": d.paper_deg}))
             .collect::<Vec<_>>(),
+        "fig4": data.fig4.iter().map(|r| json!({
+            "vpk": r.vpk, "backlash_deg": r.backlash_deg, "f_ar_hz": r.ar.freq_hz,
+            "f_r_hz": r.r.map(|x| x.freq_hz),
+            "df_f_ar_hz": r.df.anti_resonance.freq_hz, "df_f_r_hz": r.df.resonance.freq_hz}))
+            .collect::<Vec<_>>(),
         "fig5": data.fig5.iter().map(|r| json!({
             "vpk": r.vpk, "backlash_deg": r.backlash_deg, "f_ar_hz": r.ar.freq_hz,
             "f_r_hz": r.r.map(|x| x.freq_hz),
