@@ -155,6 +155,22 @@ impl<const C: usize> Analyser<C> {
         self.periods_per_block
     }
 
+    /// How far a block is from whole periods, in periods (at most half a sample's worth).
+    /// Least squares with an offset removes the leakage of the fundamental and of the mean;
+    /// higher harmonics of the response (backlash makes them) are not in the basis and leak
+    /// into the fundamental in proportion to their amplitude and to
+    /// `period_mismatch() / periods_per_block()` (a third harmonic 3× the fundamental moved
+    /// a 228 Hz gain by 3 % with a 0.016-period mismatch over 5 periods).
+    pub fn period_mismatch(&self) -> f64 {
+        let m = f64::from(self.block_samples) * self.cycles_per_sample;
+        let d = m - f64::from(self.periods_per_block);
+        if d < 0.0 {
+            -d
+        } else {
+            d
+        }
+    }
+
     /// A fresh measurement, sine phase 0 at the first sample.
     pub fn start(&self) -> AnalyserState<C> {
         AnalyserState {
