@@ -412,10 +412,17 @@ fn summary(data: &PaperData) -> (String, Value) {
          | V_pk | max backlash (simulated) | paper |\n|---:|---:|---:|\n",
         data.bandwidth_hz
     );
+    // The paper quotes its design points for 100 Hz only.
+    let paper_bw = (data.bandwidth_hz - 100.0).abs() < 1e-9;
     for d in &data.design {
+        let paper = if paper_bw {
+            format!("{:.2} deg", d.paper_deg)
+        } else {
+            "– (quoted for 100 Hz)".to_string()
+        };
         t.push_str(&format!(
-            "| {:.1} | {:.3} deg | {:.2} deg |\n",
-            d.vpk, d.max_backlash_deg, d.paper_deg
+            "| {:.1} | {:.3} deg | {paper} |\n",
+            d.vpk, d.max_backlash_deg
         ));
     }
     t.push_str(&format!(
@@ -478,6 +485,9 @@ pub fn run(cli: &Cli, out: &Path, bandwidth_hz: f64) -> Result<Report, HostError
         )));
     }
     let (p, name) = load_params(cli, None)?;
+    // Fail on an unwritable directory before the computation, not after it.
+    std::fs::create_dir_all(out)
+        .map_err(|e| HostError::other(format!("{}: {e}", out.display())))?;
     let pb = progress(job_count(), "paper");
     let t0 = std::time::Instant::now();
     let data = compute(&p, bandwidth_hz, &pb)?;
