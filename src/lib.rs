@@ -11,12 +11,15 @@
 )]
 
 pub mod actuator;
+pub mod analyser;
 #[cfg(feature = "cortex-m")]
 pub mod cortex_m;
+pub mod describing;
 pub mod discretise;
 pub mod error;
 pub mod faults;
 pub mod hal;
+pub mod linear;
 pub mod math;
 pub mod params;
 pub mod plant;
@@ -26,9 +29,11 @@ pub mod stiffness;
 pub mod trace;
 
 pub use actuator::{Parts, VirtualActuator};
+pub use analyser::{Analyser, AnalyserConfig, Harmonic, Hold, Measurement};
 pub use error::ParamError;
 pub use faults::{ActuatorFaults, BrokenTooth, Jam, PlantFaults, SensorFault, Winding};
 pub use hal::{Drive, DriveConfig, DutyError};
+pub use linear::{Complex, LinearModel};
 pub use params::{
     ActuatorParams, Derived, Effects, GearTrain, LoadParams, MotorParams, Shaft, Stiffness,
     ToothGeometry, REFERENCE,

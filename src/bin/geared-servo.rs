@@ -15,10 +15,22 @@ fn main() {
     };
     match run(&cli) {
         Ok(report) => {
-            if cli.json {
-                println!("{}", report.json);
+            use std::io::Write;
+            let text = if cli.json {
+                report.json.to_string()
             } else {
-                println!("{}", report.text);
+                report.text
+            };
+            // A closed pipe (`geared-servo … | head`) is the reader's choice, not an error;
+            // `println!` would panic on it.
+            let mut out = std::io::stdout().lock();
+            match writeln!(out, "{text}").and_then(|()| out.flush()) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+                Err(e) => {
+                    eprintln!("error: cannot write to stdout: {e}");
+                    std::process::exit(1);
+                }
             }
         }
         Err(e) => {

@@ -5,7 +5,7 @@
 
 use crate::host::error::HostError;
 use crate::host::scenario_file::{self, HostScenario};
-use crate::host::{params_file, record};
+use crate::host::{fr_cli, paper, params_file, record};
 use crate::{ActuatorParams, Plant, PlantState};
 use clap::{Parser, Subcommand};
 use serde_json::{json, Value};
@@ -45,6 +45,75 @@ pub enum Command {
         /// Fault scenario (TOML, see `geared_servo::host::scenario_file`).
         #[arg(long, value_name = "FAULTS.toml")]
         scenario: Option<PathBuf>,
+    },
+    /// Stepped-sine frequency response of V_t/V_m, simulated.
+    Bode {
+        /// Voltage amplitude, V.
+        #[arg(long, value_name = "V")]
+        vpk: f64,
+        /// Override the total backlash, degrees.
+        #[arg(long, value_name = "B")]
+        backlash_deg: Option<f64>,
+        /// First frequency, Hz.
+        #[arg(long, default_value_t = 10.0)]
+        from: f64,
+        /// Last frequency, Hz.
+        #[arg(long, default_value_t = 300.0)]
+        to: f64,
+        /// Frequency step, Hz.
+        #[arg(long, default_value_t = 1.0)]
+        step: f64,
+        /// Write `freq_hz,gain_db,phase_deg` (+ spread, settled) to this CSV file.
+        #[arg(long, value_name = "OUT")]
+        csv: Option<PathBuf>,
+        /// Measurement options.
+        #[command(flatten)]
+        measure: fr_cli::MeasureArgs,
+    },
+    /// Anti-resonance and resonance located on the simulated response (refined).
+    Resonances {
+        /// Voltage amplitude, V.
+        #[arg(long, value_name = "V")]
+        vpk: f64,
+        /// Override the total backlash, degrees.
+        #[arg(long, value_name = "B")]
+        backlash_deg: Option<f64>,
+        /// Measurement options.
+        #[command(flatten)]
+        measure: fr_cli::MeasureArgs,
+    },
+    /// Largest total backlash whose simulated f_AR is still >= the bandwidth.
+    MaxBacklash {
+        /// Required bandwidth (anti-resonance), Hz.
+        #[arg(long, value_name = "F")]
+        bandwidth_hz: f64,
+        /// Voltage amplitude, V.
+        #[arg(long, value_name = "V")]
+        vpk: f64,
+        /// Measurement options.
+        #[command(flatten)]
+        measure: fr_cli::MeasureArgs,
+    },
+    /// Smallest voltage amplitude whose simulated f_AR is >= the bandwidth.
+    MinVoltage {
+        /// Required bandwidth (anti-resonance), Hz.
+        #[arg(long, value_name = "F")]
+        bandwidth_hz: f64,
+        /// Total backlash, degrees.
+        #[arg(long, value_name = "B")]
+        backlash_deg: f64,
+        /// Measurement options.
+        #[command(flatten)]
+        measure: fr_cli::MeasureArgs,
+    },
+    /// Regenerates the paper's Fig. 3-6 (CSV + SVG) in DIR and prints the design points.
+    Paper {
+        /// Output directory (created if missing).
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        /// Bandwidth whose contour Fig. 6 draws and the design points use, Hz.
+        #[arg(long, default_value_t = 100.0, value_name = "F")]
+        bandwidth_hz: f64,
     },
 }
 
@@ -86,6 +155,40 @@ pub fn run(cli: &Cli) -> Result<Report, HostError> {
             backlash_deg,
             scenario,
         } => simulate(cli, input, output, *backlash_deg, scenario.as_deref()),
+        Command::Bode {
+            vpk,
+            backlash_deg,
+            from,
+            to,
+            step,
+            csv,
+            measure,
+        } => fr_cli::bode(
+            cli,
+            *vpk,
+            *backlash_deg,
+            *from,
+            *to,
+            *step,
+            csv.as_ref(),
+            measure,
+        ),
+        Command::Resonances {
+            vpk,
+            backlash_deg,
+            measure,
+        } => fr_cli::resonances(cli, *vpk, *backlash_deg, measure),
+        Command::MaxBacklash {
+            bandwidth_hz,
+            vpk,
+            measure,
+        } => fr_cli::max_backlash(cli, *bandwidth_hz, *vpk, measure),
+        Command::MinVoltage {
+            bandwidth_hz,
+            backlash_deg,
+            measure,
+        } => fr_cli::min_voltage(cli, *bandwidth_hz, *backlash_deg, measure),
+        Command::Paper { out, bandwidth_hz } => paper::run(cli, out, *bandwidth_hz),
     }
 }
 

@@ -3,7 +3,11 @@
 
 pub mod cli;
 pub mod error;
+pub mod fr;
+pub mod fr_cli;
+pub mod paper;
 pub mod params_file;
+pub mod plots;
 pub mod record;
 pub mod scenario_file;
 

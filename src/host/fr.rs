@@ -1,0 +1,539 @@
+//! Host side of the frequency-response tools: parallel stepped-sine sweeps (rayon), location of
+//! the anti-resonance and the resonance with sub-grid refinement, and the design queries
+//! `max-backlash` / `min-voltage`. Every simulated point runs the `no_std`
+//! [`crate::analyser::measure`], the same code the firmware example runs on target.
+
+use crate::analyser::{self, Harmonic, Hold, SweepSettings};
+use crate::describing;
+use crate::host::error::HostError;
+use crate::linear::LinearModel;
+use crate::{ActuatorParams, Plant, SineDrive};
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+use std::sync::{Mutex, OnceLock};
+
+/// How each frequency is measured.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SweepOptions {
+    /// Voltage amplitude V_pk, V.
+    pub vpk: f64,
+    /// Continuous sine (paper) or zero-order hold (firmware).
+    pub hold: Hold,
+    /// Analyser settings.
+    pub settings: SweepSettings,
+    /// Start each frequency on the linearised steady state (true) or from rest (false).
+    pub warm_start: bool,
+}
+
+impl Default for SweepOptions {
+    fn default() -> Self {
+        SweepOptions {
+            vpk: 10.0,
+            hold: Hold::Continuous,
+            settings: SweepSettings::DEFAULT,
+            warm_start: true,
+        }
+    }
+}
+
+/// One simulated frequency.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Point {
+    /// Frequency, Hz.
+    pub freq_hz: f64,
+    /// `V_t/V_m`, V/V.
+    pub tach: Harmonic,
+    /// `I/V_m`, A/V.
+    pub current: Harmonic,
+    /// The blocks agreed within tolerance.
+    pub settled: bool,
+    /// Samples simulated.
+    pub samples: u32,
+    /// Blocks averaged into the harmonics.
+    pub blocks: u32,
+}
+
+impl Point {
+    /// |V_t/V_m|, V/V.
+    pub fn gain(&self) -> f64 {
+        self.tach.phasor.abs()
+    }
+    /// |I/V_m|, A/V.
+    pub fn current_gain(&self) -> f64 {
+        self.current.phasor.abs()
+    }
+}
+
+/// Sine drives already built, keyed by (parameters without backlash, frequency bits): the
+/// drive's matrices do not depend on the backlash, and `paper` and the design queries revisit
+/// the same grid frequencies for many backlash values. Bounded; cleared when full.
+static DRIVES: OnceLock<Mutex<HashMap<(u64, u64), SineDrive>>> = OnceLock::new();
+
+/// Most drives kept (about 0.5 kB each).
+const DRIVE_CACHE_MAX: usize = 20_000;
+
+/// Empties the sine-drive cache (benchmarks measuring a cold sweep).
+pub fn clear_drive_cache() {
+    if let Ok(mut m) = DRIVES.get_or_init(Default::default).lock() {
+        m.clear();
+    }
+}
+
+fn drive(key: u64, params: &ActuatorParams, freq_hz: f64) -> Result<SineDrive, HostError> {
+    let cache = DRIVES.get_or_init(Default::default);
+    let k = (key, freq_hz.to_bits());
+    if let Some(d) = cache.lock().ok().and_then(|m| m.get(&k).copied()) {
+        return Ok(d);
+    }
+    let d = SineDrive::new(params, freq_hz).map_err(param_err)?;
+    if let Ok(mut m) = cache.lock() {
+        if m.len() >= DRIVE_CACHE_MAX {
+            m.clear();
+        }
+        m.insert(k, d);
+    }
+    Ok(d)
+}
+
+/// A parameter set ready to be measured at any frequency: the plant and the warm-start model.
+pub struct Bench {
+    drive_key: u64,
+    params: ActuatorParams,
+    plant: Plant,
+    warm: LinearModel,
+    opts: SweepOptions,
+}
+
+fn param_err(e: crate::ParamError) -> HostError {
+    HostError::input(format!("key `{}` {}", e.field(), e.reason()))
+}
+
+impl Bench {
+    /// Builds the plant for `params` and the linear warm-start model (stiffness k_eff from
+    /// the describing function at the anti-resonance for `opts.vpk`).
+    pub fn new(params: &ActuatorParams, opts: SweepOptions) -> Result<Bench, HostError> {
+        if !(opts.vpk.is_finite() && opts.vpk > 0.0) {
+            return Err(HostError::input(format!(
+                "--vpk must be a positive number of volts, got {}",
+                opts.vpk
+            )));
+        }
+        let plant = Plant::new(params).map_err(param_err)?;
+        let warm = describing::warm_start_model(params, opts.vpk).map_err(param_err)?;
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        format!("{:?}", params.with_backlash_deg(0.0)).hash(&mut h);
+        Ok(Bench {
+            drive_key: h.finish(),
+            params: *params,
+            plant,
+            warm,
+            opts,
+        })
+    }
+
+    /// The options.
+    pub fn options(&self) -> &SweepOptions {
+        &self.opts
+    }
+
+    /// Measures one frequency (Hz).
+    pub fn point(&self, freq_hz: f64) -> Result<Point, HostError> {
+        let o = &self.opts;
+        let h = self.params.sample_period_s;
+        let bad = |what: &str| {
+            HostError::input(format!(
+                "cannot measure at {freq_hz} Hz (sample period {h} s): {what}"
+            ))
+        };
+        let drive = drive(self.drive_key, &self.params, freq_hz)?;
+        let a = analyser::for_sweep(freq_hz, h, &o.settings).map_err(|e| bad(e.0))?;
+        let start = if o.warm_start {
+            self.warm.steady_state(freq_hz, o.vpk)
+        } else {
+            crate::PlantState::REST
+        };
+        let m = analyser::measure(&self.plant, &drive, &a, o.vpk, o.hold, start);
+        let [tach, current] = m.channels;
+        Ok(Point {
+            freq_hz,
+            tach,
+            current,
+            settled: m.settled,
+            samples: m.samples,
+            blocks: m.blocks_averaged,
+        })
+    }
+
+    /// Measures every frequency in parallel, ticking `progress` once per point.
+    pub fn sweep(
+        &self,
+        freqs: &[f64],
+        progress: Option<&ProgressBar>,
+    ) -> Result<Vec<Point>, HostError> {
+        freqs
+            .par_iter()
+            .map(|&f| {
+                let p = self.point(f);
+                if let Some(pb) = progress {
+                    pb.inc(1);
+                }
+                p
+            })
+            .collect()
+    }
+}
+
+/// The grid `from, from + step, …` up to `to` (inclusive within 1e-9 step).
+pub fn grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>, HostError> {
+    if !(from.is_finite() && to.is_finite() && step.is_finite() && from > 0.0 && to >= from) {
+        return Err(HostError::input(format!(
+            "frequency range must satisfy 0 < --from <= --to, got {from}..{to}"
+        )));
+    }
+    if step <= 0.0 || (to - from) / step > 1.0e6 {
+        return Err(HostError::input(format!(
+            "--step must be positive and give at most a million points, got {step}"
+        )));
+    }
+    let n = libm::floor((to - from) / step + 1e-9) as usize;
+    Ok((0..=n).map(|i| from + i as f64 * step).collect())
+}
+
+/// One located frequency with its uncertainty.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Located {
+    /// Best estimate, Hz.
+    pub freq_hz: f64,
+    /// Lowest and highest frequency (Hz) of the contiguous run of simulated points around the
+    /// extremum whose values are within two standard errors (block spread / √blocks) of it:
+    /// how blurred the feature is.
+    pub band_hz: (f64, f64),
+    /// Value there (|V_t/V_m| in V/V or |I/V_m| in A/V).
+    pub value: f64,
+    /// All the points used settled.
+    pub settled: bool,
+    /// The extremum sat at an end of the coarse grid: no feature found inside the range
+    /// (e.g. friction-dominated responses at a few volts, which have no notch).
+    pub at_edge: bool,
+}
+
+/// Where the anti-resonance and the resonance are on a simulated response.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Resonances {
+    /// Anti-resonance: minimum of |V_t/V_m| (eq. 17a in the linear case).
+    pub anti_resonance: Located,
+    /// Resonance of `Ωm/T_m`: minimum of |I/V_m| above the anti-resonance (eq. 17b in the
+    /// linear case: the back-EMF cancels the voltage where `Ωm/T_m` has its pole).
+    pub resonance: Option<Located>,
+    /// Peak of |V_t/V_m| above the anti-resonance (back-EMF damping puts it a little above
+    /// 17b: 205.80 vs 205.72 Hz for the reference actuator).
+    pub gain_peak: Option<Located>,
+    /// Points simulated.
+    pub evaluations: usize,
+}
+
+/// How [`locate`] searches.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocateOptions {
+    /// Lowest frequency of the coarse grid, Hz.
+    pub from_hz: f64,
+    /// Highest frequency of the coarse grid, Hz.
+    pub to_hz: f64,
+    /// Coarse grid spacing, Hz.
+    pub step_hz: f64,
+    /// Refinement stops when the bracket is this narrow, Hz.
+    pub tol_hz: f64,
+    /// Also locate the resonance and the gain peak.
+    pub resonance: bool,
+}
+
+impl Default for LocateOptions {
+    fn default() -> Self {
+        LocateOptions {
+            from_hz: 10.0,
+            to_hz: 300.0,
+            step_hz: 4.0,
+            tol_hz: 0.005,
+            resonance: true,
+        }
+    }
+}
+
+const INV_PHI: f64 = 0.618_033_988_749_894_9;
+
+/// Golden-section search for the minimum of `value(point)` on `[a, b]`, recording every point.
+fn golden(
+    bench: &Bench,
+    mut a: f64,
+    mut b: f64,
+    tol: f64,
+    value: &dyn Fn(&Point) -> f64,
+    seen: &mut Vec<Point>,
+) -> Result<(), HostError> {
+    let eval = |f: f64, seen: &mut Vec<Point>| -> Result<f64, HostError> {
+        let p = bench.point(f)?;
+        seen.push(p);
+        Ok(value(&p))
+    };
+    let mut c = b - INV_PHI * (b - a);
+    let mut d = a + INV_PHI * (b - a);
+    let mut fc = eval(c, seen)?;
+    let mut fd = eval(d, seen)?;
+    while b - a > tol {
+        if fc <= fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - INV_PHI * (b - a);
+            fc = eval(c, seen)?;
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + INV_PHI * (b - a);
+            fd = eval(d, seen)?;
+        }
+    }
+    Ok(())
+}
+
+/// Refines the extremum of `value` (minimised) around grid index `i` and summarises it.
+fn refine(
+    bench: &Bench,
+    coarse: &[Point],
+    i: usize,
+    tol: f64,
+    value: &dyn Fn(&Point) -> f64,
+    spread: &dyn Fn(&Point) -> f64,
+    lo_limit: f64,
+) -> Result<(Located, usize), HostError> {
+    let at = |j: usize| coarse.get(j).map(|p| p.freq_hz);
+    let f0 = at(i).unwrap_or(lo_limit);
+    let a = at(i.wrapping_sub(1)).unwrap_or(f0).max(lo_limit);
+    let b = at(i + 1).unwrap_or(f0);
+    let mut seen: Vec<Point> = coarse.to_vec();
+    let before = seen.len();
+    if b > a {
+        golden(bench, a, b, tol, value, &mut seen)?;
+    }
+    let evaluations = seen.len() - before;
+    let best = seen
+        .iter()
+        .filter(|p| p.freq_hz >= a && p.freq_hz <= b)
+        .min_by(|x, y| value(x).total_cmp(&value(y)))
+        .copied()
+        .ok_or_else(|| HostError::other("no point to refine"))?;
+    let (v0, s0) = (value(&best), spread(&best));
+    // The band: walk outwards from the best point along frequency while the points stay
+    // within two standard errors of it (a contiguous blur, not every noisy point of the sweep).
+    let mut pts: Vec<&Point> = seen.iter().filter(|p| p.freq_hz >= lo_limit).collect();
+    pts.sort_by(|x, y| x.freq_hz.total_cmp(&y.freq_hz));
+    pts.dedup_by(|x, y| x.freq_hz == y.freq_hz);
+    let near = |p: &Point| value(p) - 2.0 * spread(p) <= v0 + 2.0 * s0;
+    let ib = pts
+        .iter()
+        .position(|p| p.freq_hz == best.freq_hz)
+        .unwrap_or(0);
+    let mut band = (best.freq_hz, best.freq_hz);
+    let mut settled = best.settled;
+    for p in pts.iter().skip(ib + 1).take_while(|p| near(p)) {
+        band.1 = p.freq_hz;
+        settled &= p.settled;
+    }
+    for p in pts.iter().take(ib).rev().take_while(|p| near(p)) {
+        band.0 = p.freq_hz;
+        settled &= p.settled;
+    }
+    Ok((
+        Located {
+            freq_hz: best.freq_hz,
+            band_hz: band,
+            value: v0,
+            settled,
+            at_edge: i == 0 || i + 1 >= coarse.len(),
+        },
+        evaluations,
+    ))
+}
+
+fn argmin_from(coarse: &[Point], start: usize, value: &dyn Fn(&Point) -> f64) -> Option<usize> {
+    coarse
+        .iter()
+        .enumerate()
+        .skip(start)
+        .min_by(|(_, x), (_, y)| value(x).total_cmp(&value(y)))
+        .map(|(i, _)| i)
+}
+
+/// Locates the anti-resonance (and optionally the resonance and the gain peak) of `bench`:
+/// coarse parallel sweep, then golden-section refinement on re-simulated points. Returns the
+/// coarse sweep too.
+pub fn locate(
+    bench: &Bench,
+    lo: &LocateOptions,
+    progress: Option<&ProgressBar>,
+) -> Result<(Resonances, Vec<Point>), HostError> {
+    let freqs = grid(lo.from_hz, lo.to_hz, lo.step_hz)?;
+    let coarse = bench.sweep(&freqs, progress)?;
+    let gain = |p: &Point| p.gain();
+    let gain_spread = |p: &Point| p.tach.spread / f64::from(p.blocks.max(1)).sqrt();
+    let i_ar = argmin_from(&coarse, 0, &gain).ok_or_else(|| HostError::input("empty grid"))?;
+    let (ar, mut evals) = refine(
+        bench,
+        &coarse,
+        i_ar,
+        lo.tol_hz,
+        &gain,
+        &gain_spread,
+        lo.from_hz,
+    )?;
+    evals += coarse.len();
+    let (mut resonance, mut gain_peak) = (None, None);
+    if lo.resonance && i_ar + 2 < coarse.len() {
+        let cur = |p: &Point| p.current_gain();
+        let cur_spread = |p: &Point| p.current.spread / f64::from(p.blocks.max(1)).sqrt();
+        if let Some(i) = argmin_from(&coarse, i_ar + 1, &cur) {
+            let (r, e) = refine(bench, &coarse, i, lo.tol_hz, &cur, &cur_spread, ar.freq_hz)?;
+            evals += e;
+            resonance = Some(r);
+        }
+        let neg = |p: &Point| -p.gain();
+        if let Some(i) = argmin_from(&coarse, i_ar + 1, &neg) {
+            let (mut r, e) = refine(bench, &coarse, i, lo.tol_hz, &neg, &gain_spread, ar.freq_hz)?;
+            r.value = -r.value;
+            evals += e;
+            gain_peak = Some(r);
+        }
+    }
+    Ok((
+        Resonances {
+            anti_resonance: ar,
+            resonance,
+            gain_peak,
+            evaluations: evals,
+        },
+        coarse,
+    ))
+}
+
+/// Simulated f_AR of `params` at `vpk`, Hz (coarse grid up to a little above the
+/// backlash-free f_AR, then refinement): what the design queries bisect on. NaN when the
+/// response has no notch in that range (it then fails every bandwidth).
+pub fn f_ar(params: &ActuatorParams, opts: SweepOptions, tol_hz: f64) -> Result<f64, HostError> {
+    let bench = Bench::new(params, opts)?;
+    let f0 = params.derived().map_err(param_err)?.f_ar_hz;
+    let lo = LocateOptions {
+        from_hz: 10.0,
+        to_hz: (f0 * 1.15).max(20.0),
+        step_hz: 4.0,
+        tol_hz,
+        resonance: false,
+    };
+    let ar = locate(&bench, &lo, None)?.0.anti_resonance;
+    Ok(if ar.at_edge { f64::NAN } else { ar.freq_hz })
+}
+
+/// Result of a bisection: the answer and the points evaluated on the way.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Design {
+    /// The answer (deg for max-backlash, V for min-voltage).
+    pub value: f64,
+    /// (argument, simulated f_AR in Hz) of every evaluation, in order.
+    pub trace: Vec<(f64, f64)>,
+}
+
+/// Largest total backlash (deg) whose simulated f_AR at `vpk` is still ≥ `bandwidth_hz`, to
+/// `tol_deg`. Brackets by doubling from 0.01°, then bisects.
+pub fn max_backlash(
+    params: &ActuatorParams,
+    bandwidth_hz: f64,
+    opts: SweepOptions,
+    tol_deg: f64,
+) -> Result<Design, HostError> {
+    check_bandwidth(bandwidth_hz)?;
+    let mut trace = Vec::new();
+    let fa = |b: f64, trace: &mut Vec<(f64, f64)>| -> Result<f64, HostError> {
+        let f = f_ar(&params.with_backlash_deg(b), opts, 0.002)?;
+        trace.push((b, f));
+        Ok(f)
+    };
+    if !meets(fa(0.0, &mut trace)?, bandwidth_hz) {
+        return Err(HostError::input(format!(
+            "even without backlash the simulated f_AR is below {bandwidth_hz} Hz"
+        )));
+    }
+    let (mut lo, mut hi) = (0.0, 0.01);
+    while fa(hi, &mut trace)? >= bandwidth_hz {
+        lo = hi;
+        hi *= 2.0;
+        if hi > crate::params::MAX_BACKLASH_DEG {
+            return Err(HostError::input(format!(
+                "f_AR stays above {bandwidth_hz} Hz up to {} deg of backlash",
+                crate::params::MAX_BACKLASH_DEG
+            )));
+        }
+    }
+    while hi - lo > tol_deg {
+        let mid = 0.5 * (lo + hi);
+        if fa(mid, &mut trace)? >= bandwidth_hz {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Ok(Design { value: lo, trace })
+}
+
+/// Smallest voltage amplitude (V) whose simulated f_AR at the parameters' backlash is
+/// ≥ `bandwidth_hz`, to `tol_v`. Brackets by doubling from 1 V (up to 10 kV), then bisects.
+pub fn min_voltage(
+    params: &ActuatorParams,
+    bandwidth_hz: f64,
+    opts: SweepOptions,
+    tol_v: f64,
+) -> Result<Design, HostError> {
+    check_bandwidth(bandwidth_hz)?;
+    let mut trace = Vec::new();
+    let fa = |v: f64, trace: &mut Vec<(f64, f64)>| -> Result<f64, HostError> {
+        let f = f_ar(params, SweepOptions { vpk: v, ..opts }, 0.002)?;
+        trace.push((v, f));
+        Ok(f)
+    };
+    let (mut lo, mut hi) = (0.0, 1.0);
+    while !meets(fa(hi, &mut trace)?, bandwidth_hz) {
+        lo = hi;
+        hi *= 2.0;
+        if hi > 1.0e4 {
+            return Err(HostError::input(format!(
+                "f_AR stays below {bandwidth_hz} Hz up to 10 kV_pk at {} deg of backlash",
+                params.backlash_deg
+            )));
+        }
+    }
+    while hi - lo > tol_v {
+        let mid = 0.5 * (lo + hi);
+        if fa(mid, &mut trace)? >= bandwidth_hz {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    Ok(Design { value: hi, trace })
+}
+
+/// f_AR meets the bandwidth; NaN (no notch in range) never does.
+fn meets(f_ar_hz: f64, bandwidth_hz: f64) -> bool {
+    f_ar_hz >= bandwidth_hz
+}
+
+fn check_bandwidth(f: f64) -> Result<(), HostError> {
+    if f.is_finite() && f > 0.0 {
+        Ok(())
+    } else {
+        Err(HostError::input(format!(
+            "--bandwidth-hz must be a positive frequency, got {f}"
+        )))
+    }
+}

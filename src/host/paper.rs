@@ -1,0 +1,516 @@
+//! `paper --out DIR`: regenerates the paper's Fig. 3–6 from simulated stepped-sine responses
+//! of the parameter set (CSV + SVG), and the design points of section III.C.
+//!
+//! Every number comes from [`crate::host::fr`]: f_AR is the refined minimum of |V_t/V_m|,
+//! f_R the refined minimum of |I/V_m| above it (the pole of `Ωm/T_m`, eq. 17b in the linear
+//! case), each with the band of frequencies whose value is within two block spreads of the
+//! extremum. The describing-function prediction ([`crate::describing`]) is drawn beside them.
+
+use crate::describing::{self, DfPrediction};
+use crate::host::cli::{load_params, Cli, Report};
+use crate::host::error::HostError;
+use crate::host::fr::{self, Bench, LocateOptions, Located, Point, SweepOptions};
+use crate::host::fr_cli::{progress, spread_db, write_file};
+use crate::host::plots;
+use crate::ActuatorParams;
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+
+/// Fig. 3: voltage amplitudes, V.
+pub const FIG3_VPK: [f64; 2] = [10.0, 17.9];
+/// Fig. 3: total backlash values, deg.
+pub const FIG3_BACKLASH_DEG: [f64; 4] = [0.0, 0.02, 0.04, 0.08];
+/// Fig. 4: backlash, deg (the paper's).
+pub const FIG4_BACKLASH_DEG: f64 = 0.08;
+/// Fig. 5: voltage amplitudes, V.
+pub const FIG5_VPK: [f64; 2] = [10.0, 17.9];
+/// Fig. 6: voltage amplitudes of the map's rows, V.
+pub const FIG6_VPK: [f64; 15] = [
+    5.0, 7.5, 10.0, 12.5, 15.0, 17.9, 20.0, 25.0, 30.0, 35.0, 40.0, 50.0, 60.0, 80.0, 100.0,
+];
+/// Backlash grid of Fig. 5 and Fig. 6: 0 to 0.16° in 0.01° steps.
+pub fn backlash_grid() -> Vec<f64> {
+    (0..=16).map(|i| f64::from(i) * 0.01).collect()
+}
+/// Fig. 4 voltages: 24 log-spaced amplitudes from 3 to 1000 V plus 10, 17.9 and 30 V.
+pub fn fig4_vpk() -> Vec<f64> {
+    let mut v: Vec<f64> = (0..24)
+        .map(|i| 3.0 * (1000.0f64 / 3.0).powf(f64::from(i) / 23.0))
+        .chain([10.0, 17.9, 30.0])
+        .collect();
+    v.sort_by(f64::total_cmp);
+    v
+}
+
+/// The paper's quoted design points (section III.C): (V_pk, largest backlash in deg) for a
+/// 100 Hz bandwidth.
+pub const PAPER_DESIGN_POINTS: [(f64, f64); 2] = [(10.0, 0.03), (30.0, 0.08)];
+
+/// One simulated Bode curve.
+pub struct BodeCurve {
+    /// Voltage amplitude, V.
+    pub vpk: f64,
+    /// Total backlash, deg.
+    pub backlash_deg: f64,
+    /// The points (10–300 Hz, 1 Hz).
+    pub points: Vec<Point>,
+}
+
+/// f_AR, f_R located at one (voltage, backlash), with the DF prediction.
+#[derive(Clone, Copy, Debug)]
+pub struct FeatureRow {
+    /// Voltage amplitude, V.
+    pub vpk: f64,
+    /// Total backlash, deg.
+    pub backlash_deg: f64,
+    /// Anti-resonance.
+    pub ar: Located,
+    /// Resonance (minimum of |I/V_m| above f_AR), each frequency started on the linearised
+    /// steady state; its band is widened to cover `r_cold`.
+    pub r: Option<Located>,
+    /// The same started from rest: with backlash the response is multivalued near the
+    /// resonance (softening jump) and the start picks the branch.
+    pub r_cold: Option<Located>,
+    /// Describing-function prediction.
+    pub df: DfPrediction,
+}
+
+/// Fig. 6: f_AR over backlash (columns) × voltage (rows).
+pub struct Map {
+    /// Backlash values, deg.
+    pub backlash_deg: Vec<f64>,
+    /// Voltage amplitudes, V.
+    pub vpk: Vec<f64>,
+    /// f_AR\[row\]\[column\], Hz.
+    pub f_ar_hz: Vec<Vec<f64>>,
+}
+
+impl Map {
+    /// Per row, the backlash (deg) where f_AR first falls to `level_hz` (linear interpolation
+    /// between grid columns); None when the row never reaches it on the grid.
+    pub fn contour(&self, level_hz: f64) -> Vec<(f64, Option<f64>)> {
+        self.vpk
+            .iter()
+            .zip(self.f_ar_hz.iter())
+            .map(|(&v, row)| {
+                let cross = row
+                    .iter()
+                    .zip(row.iter().skip(1))
+                    .zip(
+                        self.backlash_deg
+                            .iter()
+                            .zip(self.backlash_deg.iter().skip(1)),
+                    )
+                    .find(|((&f0, &f1), _)| f0 >= level_hz && f1 < level_hz)
+                    .map(|((&f0, &f1), (&b0, &b1))| b0 + (b1 - b0) * (f0 - level_hz) / (f0 - f1));
+                (v, cross)
+            })
+            .collect()
+    }
+}
+
+/// A design point found by bisection on the simulated f_AR.
+#[derive(Clone, Copy, Debug)]
+pub struct DesignPoint {
+    /// Voltage amplitude, V.
+    pub vpk: f64,
+    /// Largest backlash keeping f_AR ≥ the bandwidth, deg.
+    pub max_backlash_deg: f64,
+    /// The paper's value, deg.
+    pub paper_deg: f64,
+}
+
+/// Everything `paper` computes.
+pub struct PaperData {
+    /// Bandwidth of Fig. 6's contour and of the design points, Hz.
+    pub bandwidth_hz: f64,
+    /// Closed-form (f_AR, f_R) without backlash, Hz.
+    pub closed_form: (f64, f64),
+    /// Fig. 3.
+    pub bode: Vec<BodeCurve>,
+    /// Fig. 4.
+    pub fig4: Vec<FeatureRow>,
+    /// Fig. 5.
+    pub fig5: Vec<FeatureRow>,
+    /// Fig. 6.
+    pub map: Map,
+    /// Design points.
+    pub design: Vec<DesignPoint>,
+}
+
+fn feature_row(
+    params: &ActuatorParams,
+    vpk: f64,
+    backlash_deg: f64,
+    with_r: bool,
+) -> Result<FeatureRow, HostError> {
+    let p = params.with_backlash_deg(backlash_deg);
+    let bench = Bench::new(
+        &p,
+        SweepOptions {
+            vpk,
+            ..SweepOptions::default()
+        },
+    )?;
+    let f0 = p
+        .derived()
+        .map_err(|e| HostError::input(e.reason()))?
+        .f_ar_hz;
+    let lo = LocateOptions {
+        to_hz: if with_r { 300.0 } else { (f0 * 1.15).max(20.0) },
+        resonance: with_r,
+        ..LocateOptions::default()
+    };
+    let (r, _) = fr::locate(&bench, &lo, None)?;
+    let mut res = r.resonance;
+    let mut r_cold = None;
+    if with_r && backlash_deg > 0.0 {
+        let cold = Bench::new(
+            &p,
+            SweepOptions {
+                vpk,
+                warm_start: false,
+                ..SweepOptions::default()
+            },
+        )?;
+        r_cold = fr::locate(&cold, &lo, None)?.0.resonance;
+        if let (Some(w), Some(c)) = (res.as_mut(), r_cold) {
+            w.band_hz.0 = w.band_hz.0.min(c.band_hz.0);
+            w.band_hz.1 = w.band_hz.1.max(c.band_hz.1);
+            w.settled &= c.settled;
+        }
+    }
+    let df = describing::predict(&p, vpk).map_err(|e| HostError::input(e.reason()))?;
+    Ok(FeatureRow {
+        vpk,
+        backlash_deg,
+        ar: r.anti_resonance,
+        r: res,
+        r_cold,
+        df,
+    })
+}
+
+fn rows(
+    params: &ActuatorParams,
+    cases: &[(f64, f64)],
+    with_r: bool,
+    pb: &ProgressBar,
+) -> Result<Vec<FeatureRow>, HostError> {
+    cases
+        .par_iter()
+        .map(|&(v, b)| {
+            let r = feature_row(params, v, b, with_r);
+            pb.inc(1);
+            r
+        })
+        .collect()
+}
+
+/// Computes every figure's data for `params` (its backlash is overridden per figure).
+pub fn compute(
+    params: &ActuatorParams,
+    bandwidth_hz: f64,
+    pb: &ProgressBar,
+) -> Result<PaperData, HostError> {
+    let d = params.derived().map_err(|e| HostError::input(e.reason()))?;
+    let bgrid = backlash_grid();
+    let freqs = fr::grid(10.0, 300.0, 1.0)?;
+
+    pb.set_message("fig 3");
+    let bode_cases: Vec<(f64, f64)> = FIG3_VPK
+        .iter()
+        .flat_map(|&v| FIG3_BACKLASH_DEG.iter().map(move |&b| (v, b)))
+        .collect();
+    let bode = bode_cases
+        .par_iter()
+        .map(|&(vpk, b)| {
+            let bench = Bench::new(
+                &params.with_backlash_deg(b),
+                SweepOptions {
+                    vpk,
+                    ..SweepOptions::default()
+                },
+            )?;
+            let points = bench.sweep(&freqs, None)?;
+            pb.inc(1);
+            Ok(BodeCurve {
+                vpk,
+                backlash_deg: b,
+                points,
+            })
+        })
+        .collect::<Result<Vec<_>, HostError>>()?;
+
+    pb.set_message("fig 4");
+    let c4: Vec<(f64, f64)> = fig4_vpk()
+        .into_iter()
+        .map(|v| (v, FIG4_BACKLASH_DEG))
+        .collect();
+    let fig4 = rows(params, &c4, true, pb)?;
+
+    pb.set_message("fig 5");
+    let c5: Vec<(f64, f64)> = FIG5_VPK
+        .iter()
+        .flat_map(|&v| bgrid.iter().map(move |&b| (v, b)))
+        .collect();
+    let fig5 = rows(params, &c5, true, pb)?;
+
+    pb.set_message("fig 6");
+    let c6: Vec<(f64, f64)> = FIG6_VPK
+        .iter()
+        .flat_map(|&v| bgrid.iter().map(move |&b| (v, b)))
+        .collect();
+    let cells = rows(params, &c6, false, pb)?;
+    let map = Map {
+        backlash_deg: bgrid.clone(),
+        vpk: FIG6_VPK.to_vec(),
+        f_ar_hz: cells
+            .chunks(bgrid.len())
+            .map(|r| r.iter().map(|c| c.ar.freq_hz).collect())
+            .collect(),
+    };
+
+    pb.set_message("design");
+    let design = PAPER_DESIGN_POINTS
+        .par_iter()
+        .map(|&(vpk, paper_deg)| {
+            let r = fr::max_backlash(
+                params,
+                bandwidth_hz,
+                SweepOptions {
+                    vpk,
+                    ..SweepOptions::default()
+                },
+                0.001,
+            )?;
+            pb.inc(1);
+            Ok(DesignPoint {
+                vpk,
+                max_backlash_deg: r.value,
+                paper_deg,
+            })
+        })
+        .collect::<Result<Vec<_>, HostError>>()?;
+    Ok(PaperData {
+        bandwidth_hz,
+        closed_form: (d.f_ar_hz, d.f_r_hz),
+        bode,
+        fig4,
+        fig5,
+        map,
+        design,
+    })
+}
+
+/// Jobs [`compute`] ticks the progress bar for.
+pub fn job_count() -> u64 {
+    (FIG3_VPK.len() * FIG3_BACKLASH_DEG.len()
+        + fig4_vpk().len()
+        + (FIG5_VPK.len() + FIG6_VPK.len()) * backlash_grid().len()
+        + PAPER_DESIGN_POINTS.len()) as u64
+}
+
+fn opt(x: Option<f64>) -> String {
+    x.map(|v| format!("{v:.4}")).unwrap_or_default()
+}
+
+fn rows_csv(rows: &[FeatureRow]) -> String {
+    let mut s = String::from(
+        "vpk,backlash_deg,f_ar_hz,f_ar_band_lo_hz,f_ar_band_hi_hz,f_ar_settled,\
+         f_r_hz,f_r_band_lo_hz,f_r_band_hi_hz,f_r_settled,f_r_from_rest_hz,df_f_ar_hz,df_f_r_hz,\
+         df_twist_ar_rad,df_twist_r_rad\n",
+    );
+    for r in rows {
+        s.push_str(&format!(
+            "{},{},{:.4},{:.4},{:.4},{},{},{},{},{},{},{:.4},{:.4},{:.6e},{:.6e}\n",
+            r.vpk,
+            r.backlash_deg,
+            r.ar.freq_hz,
+            r.ar.band_hz.0,
+            r.ar.band_hz.1,
+            u8::from(r.ar.settled),
+            opt(r.r.map(|x| x.freq_hz)),
+            opt(r.r.map(|x| x.band_hz.0)),
+            opt(r.r.map(|x| x.band_hz.1)),
+            r.r.map(|x| u8::from(x.settled).to_string())
+                .unwrap_or_default(),
+            opt(r.r_cold.map(|x| x.freq_hz)),
+            r.df.anti_resonance.freq_hz,
+            r.df.resonance.freq_hz,
+            r.df.anti_resonance.twist_amplitude_rad,
+            r.df.resonance.twist_amplitude_rad
+        ));
+    }
+    s
+}
+
+/// Writes the CSV files and the SVG plots into `out`; returns the files written.
+pub fn write_all(data: &PaperData, out: &Path) -> Result<Vec<PathBuf>, HostError> {
+    std::fs::create_dir_all(out)
+        .map_err(|e| HostError::other(format!("{}: {e}", out.display())))?;
+    let mut files = Vec::new();
+    let mut put = |name: &str, text: String| -> Result<(), HostError> {
+        let p = out.join(name);
+        write_file(&p, &text)?;
+        files.push(p);
+        Ok(())
+    };
+    let mut s = String::from("vpk,backlash_deg,freq_hz,gain_db,phase_deg,gain_spread_db,settled\n");
+    for c in &data.bode {
+        for q in &c.points {
+            s.push_str(&format!(
+                "{},{},{},{:.6},{:.4},{:.6},{}\n",
+                c.vpk,
+                c.backlash_deg,
+                q.freq_hz,
+                q.tach.gain_db(),
+                q.tach.phase_deg(),
+                spread_db(q.tach.spread, q.gain()),
+                u8::from(q.settled)
+            ));
+        }
+    }
+    put("fig3_bode.csv", s)?;
+    put("fig4_voltage.csv", rows_csv(&data.fig4))?;
+    put("fig5_backlash.csv", rows_csv(&data.fig5))?;
+    let mut s = String::from("backlash_deg,vpk,f_ar_hz\n");
+    for (v, row) in data.map.vpk.iter().zip(data.map.f_ar_hz.iter()) {
+        for (b, f) in data.map.backlash_deg.iter().zip(row.iter()) {
+            s.push_str(&format!("{b},{v},{f:.4}\n"));
+        }
+    }
+    put("fig6_map.csv", s)?;
+    let mut s = String::from("level_hz,vpk,backlash_deg\n");
+    for level in plots::FIG6_LEVELS {
+        for (v, b) in data.map.contour(level) {
+            if let Some(b) = b {
+                s.push_str(&format!("{level},{v},{b:.5}\n"));
+            }
+        }
+    }
+    put("fig6_contours.csv", s)?;
+    let mut s = String::from("bandwidth_hz,vpk,max_backlash_deg,paper_deg\n");
+    for d in &data.design {
+        s.push_str(&format!(
+            "{},{},{:.4},{}\n",
+            data.bandwidth_hz, d.vpk, d.max_backlash_deg, d.paper_deg
+        ));
+    }
+    put("design_points.csv", s)?;
+    for (name, svg) in plots::all(data)? {
+        put(name, svg)?;
+    }
+    Ok(files)
+}
+
+fn summary(data: &PaperData) -> (String, Value) {
+    let mut t = format!(
+        "Design points (bandwidth = f_AR >= {} Hz; bisection on simulated f_AR to 0.001 deg)\n\
+         | V_pk | max backlash (simulated) | paper |\n|---:|---:|---:|\n",
+        data.bandwidth_hz
+    );
+    // The paper quotes its design points for 100 Hz only.
+    let paper_bw = (data.bandwidth_hz - 100.0).abs() < 1e-9;
+    for d in &data.design {
+        let paper = if paper_bw {
+            format!("{:.2} deg", d.paper_deg)
+        } else {
+            "– (quoted for 100 Hz)".to_string()
+        };
+        t.push_str(&format!(
+            "| {:.1} | {:.3} deg | {paper} |\n",
+            d.vpk, d.max_backlash_deg
+        ));
+    }
+    t.push_str(&format!(
+        "\nf_AR / f_R located on the simulated response (Hz; closed form without backlash: {:.3} / {:.3})\n\
+         | V_pk | backlash (deg) | f_AR | f_AR band | f_R | f_R band | DF f_AR | DF f_R |\n\
+         |---:|---:|---:|---|---:|---|---:|---:|\n",
+        data.closed_form.0, data.closed_form.1
+    ));
+    let pick = data.fig5.iter().filter(|r| {
+        FIG3_BACKLASH_DEG
+            .iter()
+            .any(|b| (b - r.backlash_deg).abs() < 1e-9)
+    });
+    for r in pick {
+        let (fr, band) = match r.r {
+            Some(l) => (
+                format!("{:.2}", l.freq_hz),
+                format!("{:.1}–{:.1}", l.band_hz.0, l.band_hz.1),
+            ),
+            None => ("–".into(), "–".into()),
+        };
+        t.push_str(&format!(
+            "| {:.1} | {:.2} | {:.2} | {:.1}–{:.1} | {} | {} | {:.2} | {:.2} |\n",
+            r.vpk,
+            r.backlash_deg,
+            r.ar.freq_hz,
+            r.ar.band_hz.0,
+            r.ar.band_hz.1,
+            fr,
+            band,
+            r.df.anti_resonance.freq_hz,
+            r.df.resonance.freq_hz
+        ));
+    }
+    let json = json!({
+        "bandwidth_hz": data.bandwidth_hz,
+        "closed_form": {"f_ar_hz": data.closed_form.0, "f_r_hz": data.closed_form.1},
+        "design_points": data.design.iter().map(|d| json!({
+            "vpk": d.vpk, "max_backlash_deg": d.max_backlash_deg, "paper_deg": d.paper_deg}))
+            .collect::<Vec<_>>(),
+        "fig4": data.fig4.iter().map(|r| json!({
+            "vpk": r.vpk, "backlash_deg": r.backlash_deg, "f_ar_hz": r.ar.freq_hz,
+            "f_r_hz": r.r.map(|x| x.freq_hz),
+            "df_f_ar_hz": r.df.anti_resonance.freq_hz, "df_f_r_hz": r.df.resonance.freq_hz}))
+            .collect::<Vec<_>>(),
+        "fig5": data.fig5.iter().map(|r| json!({
+            "vpk": r.vpk, "backlash_deg": r.backlash_deg, "f_ar_hz": r.ar.freq_hz,
+            "f_r_hz": r.r.map(|x| x.freq_hz),
+            "df_f_ar_hz": r.df.anti_resonance.freq_hz, "df_f_r_hz": r.df.resonance.freq_hz}))
+            .collect::<Vec<_>>(),
+    });
+    (t, json)
+}
+
+/// The `paper` command.
+pub fn run(cli: &Cli, out: &Path, bandwidth_hz: f64) -> Result<Report, HostError> {
+    if !(bandwidth_hz.is_finite() && bandwidth_hz > 0.0) {
+        return Err(HostError::input(format!(
+            "--bandwidth-hz must be a positive frequency, got {bandwidth_hz}"
+        )));
+    }
+    let (p, name) = load_params(cli, None)?;
+    // Fail on an unwritable directory before the computation, not after it.
+    std::fs::create_dir_all(out)
+        .map_err(|e| HostError::other(format!("{}: {e}", out.display())))?;
+    let pb = progress(job_count(), "paper");
+    let t0 = std::time::Instant::now();
+    let data = compute(&p, bandwidth_hz, &pb)?;
+    pb.finish_and_clear();
+    let files = write_all(&data, out)?;
+    let (mut text, mut json) = summary(&data);
+    let secs = t0.elapsed().as_secs_f64();
+    text.push_str(&format!(
+        "\n{} files written to {} ({name}, {:.2} s)",
+        files.len(),
+        out.display(),
+        secs
+    ));
+    write_file(&out.join("summary.md"), &text)?;
+    if let Value::Object(m) = &mut json {
+        m.insert("params".into(), json!(name));
+        m.insert(
+            "files".into(),
+            json!(files
+                .iter()
+                .map(|f| f.display().to_string())
+                .collect::<Vec<_>>()),
+        );
+    }
+    Ok(Report { json, text })
+}
