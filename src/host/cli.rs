@@ -42,6 +42,10 @@ pub enum Command {
         #[arg(long, value_name = "B")]
         backlash_deg: Option<f64>,
     },
+    /// Synthetic measured data: excitation, extra effects, tachometer noise, seed.
+    Synth(crate::host::synth::SynthArgs),
+    /// Calibrate, analyse the residual, trace it to a missing effect, report before/after.
+    Diagnose(crate::host::diagnose::DiagnoseArgs),
 }
 
 /// What a command produced: the JSON object and the human-readable text.
@@ -81,6 +85,8 @@ pub fn run(cli: &Cli) -> Result<Report, HostError> {
             output,
             backlash_deg,
         } => simulate(cli, input, output, *backlash_deg),
+        Command::Synth(a) => crate::host::synth::run(cli, a),
+        Command::Diagnose(a) => crate::host::diagnose::run(cli, a),
     }
 }
 

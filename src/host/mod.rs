@@ -1,9 +1,15 @@
-//! Host-only tools (feature `host`): parameter files, measured-data records and the
-//! `geared-servo` command-line program. Nothing here is used by `step()`.
+//! Host-only tools (feature `host`): parameter files, measured-data records, synthetic data,
+//! calibration, residual analysis, diagnosis and the `geared-servo` command-line program.
+//! Nothing here is used by `step()`.
 
+pub mod calibrate;
 pub mod cli;
+pub mod diagnose;
 pub mod error;
 pub mod params_file;
+pub mod plots;
 pub mod record;
+pub mod residual;
+pub mod synth;
 
 pub use error::{ErrorKind, HostError};

@@ -1,0 +1,612 @@
+//! Calibration: nonlinear least squares of a chosen set of parameters against one or more
+//! records, on the simulation error (the `f32` plant run over the whole record from rest).
+//!
+//! Parameters are adjusted in an internal coordinate: the logarithm for positive quantities
+//! (so a step is a relative change and the value cannot turn negative), the value itself for
+//! signed or bounded ones, always projected into bounds. Following MODEL.md ("Calibrating
+//! against measured data"), a coarse one-dimensional search per parameter runs before
+//! Levenberg–Marquardt (the `levenberg-marquardt` crate, a port of MINPACK's `lmder`), the
+//! finite-difference steps (2 % relative, central) are far above the kinks that Coulomb
+//! friction and backlash put into the cost, and the report says whether the optimiser moved.
+
+use crate::host::error::HostError;
+use crate::host::record::Record;
+use crate::host::synth;
+use crate::{ActuatorParams, Plant, PlantState, Stiffness};
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
+use rayon::prelude::*;
+
+/// Parameters calibrated by default (those that are non-zero in the file; backlash only when
+/// the file gives one). Datasheet constants (k_t, k_b, k_ts, L) and the ratio stay fixed.
+pub const BASE_KNOBS: [&str; 7] = [
+    "motor.resistance_ohm",
+    "motor.inertia_kg_m2",
+    "load.inertia_kg_m2",
+    "stiffness.k_eq_nm_per_rad",
+    "motor.coulomb_friction_nm",
+    "load.coulomb_friction_nm",
+    "backlash.total_deg",
+];
+
+/// One adjustable parameter: its name, scale and bounds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Knob {
+    /// Key path (`motor.resistance_ohm`) or effect name (`mesh_damping`).
+    pub name: String,
+    /// Logarithmic internal coordinate (positive quantities).
+    pub log: bool,
+    /// Lower bound, in the parameter's unit.
+    pub lo: f64,
+    /// Upper bound, in the parameter's unit.
+    pub hi: f64,
+    /// Central-difference step in the internal coordinate.
+    pub fd_step: f64,
+}
+
+impl Knob {
+    fn to_z(&self, v: f64) -> f64 {
+        let v = v.clamp(self.lo, self.hi);
+        if self.log {
+            v.ln()
+        } else {
+            v
+        }
+    }
+    fn from_z(&self, z: f64) -> f64 {
+        let v = if self.log { z.exp() } else { z };
+        if v.is_nan() {
+            self.lo
+        } else {
+            v.clamp(self.lo, self.hi)
+        }
+    }
+}
+
+/// Replaces geometry by the equivalent measured stiffness (same k1, k2), so that the
+/// stiffness can be scaled and written back in the `[stiffness]` form.
+pub fn with_measured_stiffness(p: &ActuatorParams) -> Result<ActuatorParams, HostError> {
+    let d = p
+        .derived()
+        .map_err(|e| HostError::input(format!("key `{}` {}", e.field(), e.reason())))?;
+    let mut q = *p;
+    q.gears.stiffness = Stiffness::Measured {
+        k1_nm_per_rad: d.k1_nm_per_rad,
+        k2_nm_per_rad: d.k2_nm_per_rad,
+    };
+    Ok(q)
+}
+
+/// Value of parameter `name` in `p` (NaN if unknown).
+pub fn get(p: &ActuatorParams, name: &str) -> f64 {
+    match name {
+        "motor.resistance_ohm" => p.motor.resistance_ohm,
+        "motor.inertia_kg_m2" => p.motor.inertia_kg_m2,
+        "load.inertia_kg_m2" => p.load.inertia_kg_m2,
+        "stiffness.k_eq_nm_per_rad" => p.derived().map(|d| d.k_eq_nm_per_rad).unwrap_or(f64::NAN),
+        "motor.coulomb_friction_nm" => p.motor.coulomb_friction_nm,
+        "load.coulomb_friction_nm" => p.load.coulomb_friction_nm,
+        "backlash.total_deg" => p.backlash_deg,
+        "motor.tach_v_s_per_rad" => p.motor.tach_v_s_per_rad,
+        _ => synth::effect_value(&p.effects, name).unwrap_or(f64::NAN),
+    }
+}
+
+/// Sets parameter `name` in `p`. The stiffness scales k1 and k2 together (their ratio, which
+/// only splits k_eq between the stages, is not observable from the motor side).
+pub fn set(p: &mut ActuatorParams, name: &str, v: f64) {
+    match name {
+        "motor.resistance_ohm" => p.motor.resistance_ohm = v,
+        "motor.inertia_kg_m2" => p.motor.inertia_kg_m2 = v,
+        "load.inertia_kg_m2" => p.load.inertia_kg_m2 = v,
+        "stiffness.k_eq_nm_per_rad" => {
+            let now = get(p, name);
+            if let Stiffness::Measured {
+                k1_nm_per_rad,
+                k2_nm_per_rad,
+            } = &mut p.gears.stiffness
+            {
+                if now.is_finite() && now > 0.0 {
+                    *k1_nm_per_rad *= v / now;
+                    *k2_nm_per_rad *= v / now;
+                }
+            }
+        }
+        "motor.coulomb_friction_nm" => p.motor.coulomb_friction_nm = v,
+        "load.coulomb_friction_nm" => p.load.coulomb_friction_nm = v,
+        "backlash.total_deg" => p.backlash_deg = v,
+        "motor.tach_v_s_per_rad" => p.motor.tach_v_s_per_rad = v,
+        _ => {
+            let _ = synth::set_effect(&mut p.effects, name, v);
+        }
+    }
+}
+
+/// Unit of parameter `name`.
+pub fn unit(name: &str) -> &'static str {
+    match name {
+        "motor.resistance_ohm" => "ohm",
+        "motor.inertia_kg_m2" | "load.inertia_kg_m2" => "kg*m^2",
+        "stiffness.k_eq_nm_per_rad" => "N*m/rad",
+        "motor.coulomb_friction_nm" | "load.coulomb_friction_nm" => "N*m",
+        "backlash.total_deg" => "deg",
+        "motor.tach_v_s_per_rad" => "V*s/rad",
+        _ => synth::effect_unit(name).unwrap_or(""),
+    }
+}
+
+/// Natural magnitude of effect `name` for `p` (the scale its search grid is built on):
+/// back-EMF damping for viscous friction, critical damping of the gear mode for mesh
+/// damping, k_eq for the hinge, one sample for the delay, the largest command for the limit.
+pub fn effect_scale(p: &ActuatorParams, name: &str, max_abs_v: f64) -> f64 {
+    let m = &p.motor;
+    let emf = m.torque_constant_nm_per_a * m.back_emf_v_s_per_rad / m.resistance_ohm;
+    let d = p.derived().ok();
+    let n = d.map(|d| d.n_total).unwrap_or(1.0);
+    let k = d.map(|d| d.k_eq_nm_per_rad).unwrap_or(1.0);
+    let (jm_l, jl) = (n * n * m.inertia_kg_m2, p.load.inertia_kg_m2);
+    match name {
+        "motor_viscous" => emf,
+        "load_viscous" => emf * n * n,
+        "mesh_damping" => 2.0 * (k * jm_l * jl / (jm_l + jl)).sqrt(),
+        "hinge_stiffness" => k,
+        "input_delay" => p.sample_period_s,
+        "voltage_limit" => max_abs_v,
+        _ => 1.0,
+    }
+}
+
+/// The knob for parameter or effect `name`, with bounds around `p`'s value (or around the
+/// effect's natural scale when the effect is off).
+pub fn knob(p: &ActuatorParams, name: &str, max_abs_v: f64) -> Knob {
+    let v = get(p, name);
+    let h = p.sample_period_s;
+    match name {
+        "input_delay" => Knob {
+            name: name.into(),
+            log: false,
+            lo: 0.0,
+            hi: 0.99 * crate::plant::MAX_DELAY_STEPS as f64 * h,
+            fd_step: 0.1 * h,
+        },
+        "tach_gain" => Knob {
+            name: name.into(),
+            log: false,
+            lo: -0.9,
+            hi: 3.0,
+            fd_step: 0.01,
+        },
+        "voltage_limit" => Knob {
+            name: name.into(),
+            log: true,
+            lo: 0.02 * max_abs_v.max(1e-3),
+            hi: 2.0 * max_abs_v.max(1e-3),
+            fd_step: 0.01,
+        },
+        _ if synth::effect_unit(name).is_some() => {
+            let s = effect_scale(p, name, max_abs_v);
+            Knob {
+                name: name.into(),
+                log: true,
+                lo: s * 1e-5,
+                hi: s * 1e3,
+                fd_step: 0.02,
+            }
+        }
+        _ => Knob {
+            name: name.into(),
+            log: true,
+            lo: v / 30.0,
+            hi: v * 30.0,
+            fd_step: 0.02,
+        },
+    }
+}
+
+/// The default set for `p`: every base parameter that is non-zero there.
+pub fn default_knobs(p: &ActuatorParams, max_abs_v: f64) -> Vec<Knob> {
+    BASE_KNOBS
+        .iter()
+        .filter(|n| get(p, n) > 0.0)
+        .map(|n| knob(p, n, max_abs_v))
+        .collect()
+}
+
+/// One record prepared for fitting.
+#[derive(Clone, Debug)]
+pub struct Data {
+    /// Commanded voltages, one per row, V.
+    pub volts: Vec<f64>,
+    /// Measured output, one per row.
+    pub y: Vec<f64>,
+    /// Output column name.
+    pub output: String,
+    /// Sample period, s.
+    pub sample_period_s: f64,
+    /// Steps of the first voltage held before the record when it does not start at rest.
+    pub preroll: usize,
+    /// ‖y − mean(y)‖₂, the NRMSE denominator.
+    pub norm: f64,
+}
+
+/// Output columns the fit can use, in order of preference.
+pub const FIT_OUTPUTS: [&str; 4] = [
+    "tach_voltage_v",
+    "motor_speed_rad_s",
+    "load_angle_deg",
+    "current_a",
+];
+
+impl Data {
+    /// Prepares `rec`: picks the first output of [`FIT_OUTPUTS`] it has. When the first
+    /// output sample is far from zero (more than 5 % of the largest), the record did not
+    /// start at rest: the first voltage is then held for 2 s before it (a steady state).
+    pub fn from_record(rec: &Record, name: &str) -> Result<Data, HostError> {
+        let (output, y) = FIT_OUTPUTS
+            .iter()
+            .find_map(|c| rec.output(c).map(|y| (c.to_string(), y.to_vec())))
+            .ok_or_else(|| HostError::input(format!("{name}: no output column to fit")))?;
+        let peak = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let y0 = y.first().copied().unwrap_or(0.0);
+        let preroll = if y0.abs() > 0.05 * peak {
+            (2.0 / rec.sample_period_s).round() as usize
+        } else {
+            0
+        };
+        let mean = y.iter().sum::<f64>() / y.len().max(1) as f64;
+        let norm = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>().sqrt();
+        if norm <= 0.0 || !norm.is_finite() {
+            return Err(HostError::input(format!(
+                "{name}: column `{output}` is constant: nothing to fit"
+            )));
+        }
+        Ok(Data {
+            volts: rec.motor_voltage_v.clone(),
+            y,
+            output,
+            sample_period_s: rec.sample_period_s,
+            preroll,
+            norm,
+        })
+    }
+
+    /// Largest |commanded voltage|, V.
+    pub fn max_abs_v(&self) -> f64 {
+        self.volts.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+    }
+}
+
+/// What a simulation gives besides the fitted output, for the regime analysis.
+#[derive(Clone, Debug, Default)]
+pub struct Trace {
+    /// Model output (the column being fitted), one per row.
+    pub y: Vec<f64>,
+    /// Motor speed, rad/s.
+    pub motor_speed: Vec<f64>,
+    /// Armature current, A.
+    pub current: Vec<f64>,
+    /// Gears in contact.
+    pub contact: Vec<bool>,
+}
+
+/// Runs `p` over `d` from rest (after the pre-roll); `None` if `p` is invalid.
+pub fn simulate(p: &ActuatorParams, d: &Data) -> Option<Trace> {
+    let mut q = *p;
+    q.sample_period_s = d.sample_period_s;
+    let plant = Plant::new(&q).ok()?;
+    let mut st = PlantState::REST;
+    let v0 = d.volts.first().copied().unwrap_or(0.0) as f32;
+    for _ in 0..d.preroll {
+        plant.step(&mut st, v0);
+    }
+    let mut o = plant.outputs(&st);
+    let n = d.volts.len();
+    let mut t = Trace {
+        y: Vec::with_capacity(n),
+        motor_speed: Vec::with_capacity(n),
+        current: Vec::with_capacity(n),
+        contact: Vec::with_capacity(n),
+    };
+    for &v in &d.volts {
+        let y = match d.output.as_str() {
+            "motor_speed_rad_s" => o.motor_speed_rad_s,
+            "load_angle_deg" => o.load_angle_deg(),
+            "current_a" => o.current_a,
+            _ => o.tach_voltage_v,
+        };
+        t.y.push(f64::from(y));
+        t.motor_speed.push(f64::from(o.motor_speed_rad_s));
+        t.current.push(f64::from(o.current_a));
+        t.contact.push(o.in_contact);
+        o = plant.step(&mut st, v as f32);
+    }
+    Some(t)
+}
+
+/// NRMSE of `p` on `d` (∞ if `p` is invalid).
+pub fn nrmse(p: &ActuatorParams, d: &Data) -> f64 {
+    match simulate(p, d) {
+        Some(t) => {
+            t.y.iter()
+                .zip(&d.y)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum::<f64>()
+                .sqrt()
+                / d.norm
+        }
+        None => f64::INFINITY,
+    }
+}
+
+/// Stacked normalised residuals over all records: Σ r² = mean over records of NRMSE².
+fn residuals(p: &ActuatorParams, data: &[Data]) -> DVector<f64> {
+    let w = 1.0 / (data.len().max(1) as f64).sqrt();
+    let m: usize = data.iter().map(|d| d.y.len()).sum();
+    let mut r = Vec::with_capacity(m);
+    for d in data {
+        match simulate(p, d) {
+            Some(t) => r.extend(t.y.iter().zip(&d.y).map(|(a, b)| w * (b - a) / d.norm)),
+            None => r.extend(std::iter::repeat_n(1e3, d.y.len())),
+        }
+    }
+    DVector::from_vec(r)
+}
+
+/// Mean over records of NRMSE².
+pub fn cost(p: &ActuatorParams, data: &[Data]) -> f64 {
+    data.iter().map(|d| nrmse(p, d).powi(2)).sum::<f64>() / data.len().max(1) as f64
+}
+
+fn apply(p0: &ActuatorParams, knobs: &[Knob], z: &[f64]) -> ActuatorParams {
+    let mut p = *p0;
+    for (k, &zi) in knobs.iter().zip(z) {
+        set(&mut p, &k.name, k.from_z(zi));
+    }
+    p
+}
+
+struct Problem<'a> {
+    p0: ActuatorParams,
+    knobs: &'a [Knob],
+    data: &'a [Data],
+    z: DVector<f64>,
+    r: DVector<f64>,
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, z: &DVector<f64>) {
+        // Project into bounds so the optimiser's own copy cannot wander outside them.
+        let zc: Vec<f64> = self
+            .knobs
+            .iter()
+            .zip(z.iter())
+            .map(|(k, &zi)| k.to_z(k.from_z(zi)))
+            .collect();
+        self.z = DVector::from_vec(zc);
+        self.r = residuals(&apply(&self.p0, self.knobs, self.z.as_slice()), self.data);
+    }
+    fn params(&self) -> DVector<f64> {
+        self.z.clone()
+    }
+    fn residuals(&self) -> Option<DVector<f64>> {
+        Some(self.r.clone())
+    }
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        Some(jacobian(&self.p0, self.knobs, self.data, self.z.as_slice()))
+    }
+}
+
+/// Central-difference Jacobian of the residuals in the internal coordinates (columns in
+/// parallel).
+fn jacobian(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], z: &[f64]) -> DMatrix<f64> {
+    let cols: Vec<DVector<f64>> = (0..knobs.len())
+        .into_par_iter()
+        .map(|j| {
+            let hj = knobs.get(j).map(|k| k.fd_step).unwrap_or(0.02);
+            let mut zp = z.to_vec();
+            let mut zm = z.to_vec();
+            if let (Some(a), Some(b)) = (zp.get_mut(j), zm.get_mut(j)) {
+                *a += hj;
+                *b -= hj;
+            }
+            let rp = residuals(&apply(p0, knobs, &zp), data);
+            let rm = residuals(&apply(p0, knobs, &zm), data);
+            (rp - rm) / (2.0 * hj)
+        })
+        .collect();
+    DMatrix::from_columns(&cols)
+}
+
+/// Result of a calibration.
+#[derive(Clone, Debug)]
+pub struct Fit {
+    /// Calibrated parameters.
+    pub params: ActuatorParams,
+    /// The knobs that were adjusted.
+    pub knobs: Vec<Knob>,
+    /// Their calibrated values.
+    pub values: Vec<f64>,
+    /// Standard errors, in each parameter's unit (from the Gauss–Newton covariance, which
+    /// assumes white residuals: optimistic when they are not).
+    pub std_errors: Vec<f64>,
+    /// Correlation matrix of the estimates (internal coordinates), row-major.
+    pub correlations: Vec<Vec<f64>>,
+    /// Mean over records of NRMSE², at the start and at the end.
+    pub cost_start: f64,
+    /// Final cost.
+    pub cost: f64,
+    /// Largest relative change of any knob (internal coordinate change for log knobs).
+    pub moved: f64,
+    /// Residual evaluations (simulations of every record) spent by the optimiser.
+    pub evaluations: usize,
+}
+
+/// Coarse one-dimensional search: for each knob in turn, the best of a few multiples of its
+/// value (log knobs) or of a few offsets (linear knobs); two passes. Returns the new
+/// parameters and their cost.
+pub fn coarse_search(
+    p0: &ActuatorParams,
+    knobs: &[Knob],
+    data: &[Data],
+    passes: usize,
+) -> (ActuatorParams, f64) {
+    let mut best = *p0;
+    let mut best_c = cost(&best, data);
+    for pass in 0..passes {
+        let spread = if pass == 0 { 1.0 } else { 0.5 };
+        for k in knobs {
+            let v = get(&best, &k.name);
+            let cands: Vec<f64> = if k.log {
+                [-0.7, -0.35, -0.15, 0.15, 0.35, 0.7]
+                    .iter()
+                    .map(|f| k.from_z(k.to_z(v) + f * spread))
+                    .collect()
+            } else {
+                let w = (k.hi - k.lo) * 0.05 * spread;
+                [-2.0, -1.0, -0.5, 0.5, 1.0, 2.0]
+                    .iter()
+                    .map(|f| (v + f * w).clamp(k.lo, k.hi))
+                    .collect()
+            };
+            let scored: Vec<(f64, ActuatorParams)> = cands
+                .par_iter()
+                .map(|&c| {
+                    let mut q = best;
+                    set(&mut q, &k.name, c);
+                    (cost(&q, data), q)
+                })
+                .collect();
+            for (c, q) in scored {
+                if c < best_c {
+                    best_c = c;
+                    best = q;
+                }
+            }
+        }
+    }
+    (best, best_c)
+}
+
+/// Levenberg–Marquardt over `knobs` from `p0` (no coarse search; see [`coarse_search`]).
+pub fn levenberg_marquardt(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> Fit {
+    let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, &k.name))).collect();
+    let cost_start = cost(p0, data);
+    let mut prob = Problem {
+        p0: *p0,
+        knobs,
+        data,
+        z: DVector::zeros(knobs.len()),
+        r: DVector::zeros(0),
+    };
+    prob.set_params(&DVector::from_vec(z0.clone()));
+    let (prob, report) = LevenbergMarquardt::new()
+        .with_patience(20)
+        .with_ftol(1e-6)
+        .with_xtol(1e-6)
+        .minimize(prob);
+    let mut z = prob.z.as_slice().to_vec();
+    let mut params = apply(p0, knobs, &z);
+    let mut c = cost(&params, data);
+    if !(c <= cost_start) {
+        // The optimiser can stop at a worse point when the cost is not smooth: keep the start.
+        z = z0.clone();
+        params = *p0;
+        c = cost_start;
+    }
+    let moved = z
+        .iter()
+        .zip(&z0)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    let values: Vec<f64> = knobs.iter().zip(&z).map(|(k, &zi)| k.from_z(zi)).collect();
+    let (std_errors, correlations) = covariance(p0, knobs, data, &z, c);
+    Fit {
+        params,
+        knobs: knobs.to_vec(),
+        values,
+        std_errors,
+        correlations,
+        cost_start,
+        cost: c,
+        moved,
+        evaluations: report.number_of_evaluations,
+    }
+}
+
+/// Gauss–Newton covariance σ² (JᵀJ)⁻¹ at `z`, mapped to standard errors in each unit.
+fn covariance(
+    p0: &ActuatorParams,
+    knobs: &[Knob],
+    data: &[Data],
+    z: &[f64],
+    c: f64,
+) -> (Vec<f64>, Vec<Vec<f64>>) {
+    let n = knobs.len();
+    let j = jacobian(p0, knobs, data, z);
+    let m = j.nrows();
+    let rss = c; // Σ r² of the stacked residuals
+    let dof = (m.saturating_sub(n)).max(1) as f64;
+    let jtj = j.transpose() * &j;
+    let Some(inv) = jtj.clone().try_inverse() else {
+        return (vec![f64::INFINITY; n], vec![vec![f64::NAN; n]; n]);
+    };
+    let cov = inv * (rss / dof);
+    let sd: Vec<f64> = (0..n).map(|i| cov[(i, i)].max(0.0).sqrt()).collect();
+    let se = knobs
+        .iter()
+        .zip(&sd)
+        .zip(z)
+        .map(|((k, s), &zi)| if k.log { k.from_z(zi) * s } else { *s })
+        .collect();
+    let corr = (0..n)
+        .map(|a| {
+            (0..n)
+                .map(|b| {
+                    let d = sd[a] * sd[b];
+                    if d > 0.0 {
+                        cov[(a, b)] / d
+                    } else {
+                        f64::NAN
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    (se, corr)
+}
+
+/// Coarse search, then Levenberg–Marquardt.
+pub fn calibrate(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> Fit {
+    let c0 = cost(p0, data);
+    let (p1, _) = coarse_search(p0, knobs, data, 2);
+    let mut fit = levenberg_marquardt(&p1, knobs, data);
+    fit.cost_start = c0;
+    let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, &k.name))).collect();
+    fit.moved = knobs
+        .iter()
+        .zip(&fit.values)
+        .zip(&z0)
+        .map(|((k, &v), &a)| (k.to_z(v) - a).abs())
+        .fold(0.0, f64::max);
+    fit
+}
+
+/// Pairs of knobs whose estimates correlate beyond `limit` in magnitude: what the data
+/// cannot separate.
+pub fn inseparable(fit: &Fit, limit: f64) -> Vec<(String, String, f64)> {
+    let mut out = Vec::new();
+    for (a, row) in fit.correlations.iter().enumerate() {
+        for (b, &r) in row.iter().enumerate().skip(a + 1) {
+            if r.abs() > limit {
+                if let (Some(ka), Some(kb)) = (fit.knobs.get(a), fit.knobs.get(b)) {
+                    out.push((ka.name.clone(), kb.name.clone(), r));
+                }
+            }
+        }
+    }
+    out
+}

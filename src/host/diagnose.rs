@@ -1,0 +1,541 @@
+//! `diagnose`: calibrate the default parameter set, analyse the residual, trace it to a
+//! missing effect, add the effect, refit, repeat; report the error before and after.
+//!
+//! Tracing: every candidate effect that the model does not have yet is scored by a
+//! one-dimensional search of its value on a grid around its natural scale (everything else
+//! held at the current fit) — how much of the residual it can explain. The best few are
+//! refitted together with the default set by Levenberg–Marquardt. The best refit is added
+//! only if it earns its parameter by the Bayesian information criterion, computed with an
+//! effective sample count n (1 − ρ₁)/(1 + ρ₁) (ρ₁: lag-1 autocorrelation of the residual, so
+//! that a smooth, strongly correlated residual does not count as n independent samples), and,
+//! when a validation record is given, only if it also lowers the validation error. The loop
+//! stops when the residual is white or no candidate earns its place; structure left then is
+//! reported as unexplained, with the band and regime that hold its energy.
+
+use crate::host::calibrate::{self, Data, Fit, Knob};
+use crate::host::error::HostError;
+use crate::host::residual::{self, Analysis};
+use crate::host::synth;
+use crate::ActuatorParams;
+use rayon::prelude::*;
+use serde_json::{json, Map, Value};
+
+/// Options of the search.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Candidate effects (default: all seven).
+    pub candidates: Vec<String>,
+    /// Most effects added.
+    pub max_steps: usize,
+    /// Candidates refitted fully per step (the best by their one-dimensional score).
+    pub refit_top: usize,
+    /// ΔBIC an effect must beat (negative: strong evidence at −10, Kass & Raftery 1995).
+    pub bic_threshold: f64,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            candidates: synth::EFFECTS.iter().map(|(n, _)| n.to_string()).collect(),
+            max_steps: 3,
+            refit_top: 2,
+            bic_threshold: -10.0,
+        }
+    }
+}
+
+/// One effect added.
+#[derive(Clone, Debug)]
+pub struct Step {
+    /// Effect name.
+    pub effect: String,
+    /// Calibrated value, in the effect's unit.
+    pub value: f64,
+    /// Its standard error.
+    pub std_error: f64,
+    /// NRMSE (root mean square over records) before and after adding it.
+    pub nrmse_before: f64,
+    /// After.
+    pub nrmse_after: f64,
+    /// ΔBIC of adding it (negative = better).
+    pub delta_bic: f64,
+    /// Scores of every candidate at this step: (effect, best 1-D NRMSE, value there).
+    pub scores: Vec<(String, f64, f64)>,
+}
+
+/// Everything `diagnose` found.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// The file's parameters (stiffness in measured form).
+    pub nominal: ActuatorParams,
+    /// Analysis of the nominal model on the first record.
+    pub nominal_analysis: Analysis,
+    /// Calibration of the default set, no effect added.
+    pub base: Fit,
+    /// Analysis after that calibration.
+    pub base_analysis: Analysis,
+    /// Effects added, in order.
+    pub steps: Vec<Step>,
+    /// Final calibration.
+    pub final_fit: Fit,
+    /// Final analysis on the first record.
+    pub final_analysis: Analysis,
+    /// Validation NRMSE of the nominal model and of the final one.
+    pub validation: Option<(f64, f64)>,
+    /// Residual still structured and no candidate explains it.
+    pub unexplained: bool,
+}
+
+fn rms_nrmse(cost: f64) -> f64 {
+    cost.max(0.0).sqrt()
+}
+
+fn analyse(p: &ActuatorParams, d: &Data) -> Result<(Analysis, calibrate::Trace), HostError> {
+    let t = calibrate::simulate(p, d)
+        .ok_or_else(|| HostError::other("the calibrated parameters are invalid"))?;
+    Ok((residual::analyse(&d.y, &t, &d.volts, d.sample_period_s), t))
+}
+
+/// Lag-1 autocorrelation of the stacked residuals of `p` (first record).
+fn effective_samples(p: &ActuatorParams, data: &[Data]) -> f64 {
+    let n: usize = data.iter().map(|d| d.y.len()).sum();
+    let Some(d) = data.first() else { return 1.0 };
+    let Some(t) = calibrate::simulate(p, d) else {
+        return 1.0;
+    };
+    let e: Vec<f64> = d.y.iter().zip(&t.y).map(|(a, b)| a - b).collect();
+    let m = e.iter().sum::<f64>() / e.len().max(1) as f64;
+    let s0: f64 = e.iter().map(|x| (x - m).powi(2)).sum();
+    let s1: f64 = e.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum();
+    let rho = if s0 > 0.0 {
+        (s1 / s0).clamp(0.0, 0.999)
+    } else {
+        0.0
+    };
+    (n as f64 * (1.0 - rho) / (1.0 + rho)).max(2.0)
+}
+
+/// Grid of values tried for `knob` in the one-dimensional score.
+fn grid(p: &ActuatorParams, k: &Knob, max_abs_v: f64) -> Vec<f64> {
+    let s = calibrate::effect_scale(p, &k.name, max_abs_v);
+    let v: Vec<f64> = match k.name.as_str() {
+        "input_delay" => [0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0]
+            .iter()
+            .map(|f| f * s)
+            .collect(),
+        "voltage_limit" => [0.3, 0.45, 0.6, 0.7, 0.8, 0.9, 0.95]
+            .iter()
+            .map(|f| f * s)
+            .collect(),
+        "tach_gain" => vec![-0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3],
+        _ => [1e-3, 3e-3, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0]
+            .iter()
+            .map(|f| f * s)
+            .collect(),
+    };
+    v.into_iter().map(|x| x.clamp(k.lo, k.hi)).collect()
+}
+
+/// Runs the whole diagnosis on `data` (one or more records) from the file's parameters.
+pub fn diagnose(
+    file_params: &ActuatorParams,
+    data: &[Data],
+    validation: Option<&Data>,
+    opts: &Options,
+) -> Result<Outcome, HostError> {
+    let first = data
+        .first()
+        .ok_or_else(|| HostError::input("no record to diagnose"))?;
+    let mut nominal = calibrate::with_measured_stiffness(file_params)?;
+    nominal.sample_period_s = first.sample_period_s;
+    let max_v = data.iter().map(Data::max_abs_v).fold(0.0, f64::max);
+    let (nominal_analysis, _) = analyse(&nominal, first)?;
+
+    let knobs = calibrate::default_knobs(&nominal, max_v);
+    let base = calibrate::calibrate(&nominal, &knobs, data);
+    let (base_analysis, _) = analyse(&base.params, first)?;
+
+    let mut cur = base.clone();
+    let mut cur_white = base_analysis.white;
+    let mut steps = Vec::new();
+    let val_cost = |p: &ActuatorParams| validation.map(|v| calibrate::nrmse(p, v));
+    while steps.len() < opts.max_steps && !cur_white {
+        let cands: Vec<Knob> = opts
+            .candidates
+            .iter()
+            .filter(|c| calibrate::get(&cur.params, c) == 0.0)
+            .map(|c| calibrate::knob(&cur.params, c, max_v))
+            .collect();
+        if cands.is_empty() {
+            break;
+        }
+        // Score: best cost along each candidate's grid, everything else fixed.
+        let mut scores: Vec<(Knob, f64, f64)> = cands
+            .iter()
+            .map(|k| {
+                let g = grid(&cur.params, k, max_v);
+                let best = g
+                    .par_iter()
+                    .map(|&v| {
+                        let mut q = cur.params;
+                        calibrate::set(&mut q, &k.name, v);
+                        (calibrate::cost(&q, data), v)
+                    })
+                    .collect::<Vec<_>>()
+                    .into_iter()
+                    .fold((f64::INFINITY, 0.0), |b, x| if x.0 < b.0 { x } else { b });
+                (k.clone(), best.0, best.1)
+            })
+            .collect();
+        scores.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let score_list: Vec<(String, f64, f64)> = scores
+            .iter()
+            .map(|(k, c, v)| (k.name.clone(), rms_nrmse(*c), *v))
+            .collect();
+        // Refit the best few (those that explain anything at all).
+        let mut best: Option<(Fit, Knob)> = None;
+        for (k, c, v) in scores.iter().take(opts.refit_top) {
+            if !(*c < cur.cost) {
+                continue;
+            }
+            let mut p = cur.params;
+            calibrate::set(&mut p, &k.name, *v);
+            let mut ks = cur.knobs.clone();
+            ks.push(k.clone());
+            let fit = calibrate::levenberg_marquardt(&p, &ks, data);
+            if best.as_ref().is_none_or(|(b, _)| fit.cost < b.cost) {
+                best = Some((fit, k.clone()));
+            }
+        }
+        let Some((fit, k)) = best else { break };
+        let n_eff = effective_samples(&cur.params, data);
+        let delta_bic = n_eff * (fit.cost / cur.cost).ln() + n_eff.ln();
+        let val_ok = match (val_cost(&cur.params), val_cost(&fit.params)) {
+            (Some(a), Some(b)) => b < a,
+            _ => true,
+        };
+        if !(delta_bic < opts.bic_threshold) || !val_ok {
+            break;
+        }
+        let idx = fit.knobs.len() - 1;
+        steps.push(Step {
+            effect: k.name.clone(),
+            value: fit.values.get(idx).copied().unwrap_or(f64::NAN),
+            std_error: fit.std_errors.get(idx).copied().unwrap_or(f64::NAN),
+            nrmse_before: rms_nrmse(cur.cost),
+            nrmse_after: rms_nrmse(fit.cost),
+            delta_bic,
+            scores: score_list,
+        });
+        cur = fit;
+        cur_white = analyse(&cur.params, first)?.0.white;
+    }
+    let (final_analysis, _) = analyse(&cur.params, first)?;
+    let validation = match (val_cost(&nominal), val_cost(&cur.params)) {
+        (Some(a), Some(b)) => Some((a, b)),
+        _ => None,
+    };
+    Ok(Outcome {
+        nominal,
+        nominal_analysis,
+        base_analysis,
+        base,
+        steps,
+        unexplained: !final_analysis.white,
+        final_analysis,
+        final_fit: cur,
+        validation,
+    })
+}
+
+fn params_json(p: &ActuatorParams, knobs: &[Knob]) -> Value {
+    let mut m = Map::new();
+    for k in knobs {
+        m.insert(k.name.clone(), json!(calibrate::get(p, &k.name)));
+    }
+    Value::Object(m)
+}
+
+fn fit_json(f: &Fit) -> Value {
+    let mut se = Map::new();
+    for (k, s) in f.knobs.iter().zip(&f.std_errors) {
+        se.insert(k.name.clone(), json!(s));
+    }
+    json!({
+        "nrmse": rms_nrmse(f.cost),
+        "parameters": params_json(&f.params, &f.knobs),
+        "std_errors": se,
+        "correlation_order": f.knobs.iter().map(|k| k.name.clone()).collect::<Vec<_>>(),
+        "correlations": f.correlations,
+        "inseparable": calibrate::inseparable(f, 0.95).iter().map(|(a, b, r)| json!({"a": a, "b": b, "correlation": r})).collect::<Vec<_>>(),
+        "optimiser_moved": f.moved,
+        "evaluations": f.evaluations,
+    })
+}
+
+impl Outcome {
+    /// The JSON object of INTERFACES.md ("diagnose --json"), with more keys.
+    pub fn to_json(&self, first: &Data) -> Value {
+        let names: Vec<String> = self.steps.iter().map(|s| s.effect.clone()).collect();
+        let mut v = json!({
+            "samples": first.y.len(),
+            "sample_period_s": first.sample_period_s,
+            "output": first.output,
+            "preroll_s": first.preroll as f64 * first.sample_period_s,
+            "nominal": {
+                "nrmse": self.nominal_analysis.nrmse,
+                "fit_percent": self.nominal_analysis.fit_percent,
+                "parameters": params_json(&self.nominal, &self.base.knobs),
+            },
+            "calibrated": fit_json(&self.base),
+            "calibrated_residual": self.base_analysis.to_json(),
+            "steps": self.steps.iter().map(|s| json!({
+                "effect": s.effect,
+                "value": s.value,
+                "std_error": s.std_error,
+                "unit": synth::effect_unit(&s.effect).unwrap_or(""),
+                "nrmse_before": s.nrmse_before,
+                "nrmse_after": s.nrmse_after,
+                "delta_bic": s.delta_bic,
+                "candidate_scores": s.scores.iter().map(|(n, c, x)| json!({"effect": n, "nrmse": c, "value": x})).collect::<Vec<_>>(),
+            })).collect::<Vec<_>>(),
+            "added_effects": names,
+            "final": {
+                "nrmse": self.final_analysis.nrmse,
+                "fit_percent": self.final_analysis.fit_percent,
+                "residual_white": self.final_analysis.white,
+                "fit": fit_json(&self.final_fit),
+                "residual": self.final_analysis.to_json(),
+            },
+            "unexplained": self.unexplained,
+        });
+        if self.unexplained {
+            let (lo, hi, sh) = self.final_analysis.dominant_band();
+            v["unexplained_band_hz"] = json!([lo, hi]);
+            v["unexplained_band_share"] = json!(sh);
+            v["unexplained_peak_hz"] = json!(self.final_analysis.peak_hz);
+            v["unexplained_regimes"] = json!(self.final_analysis.concentrated_regimes());
+        }
+        if let Some((a, b)) = self.validation {
+            v["validation"] = json!({"nrmse_before": a, "nrmse_after": b});
+        }
+        v
+    }
+
+    /// Human summary.
+    pub fn summary(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::new();
+        let a0 = &self.nominal_analysis;
+        let _ = writeln!(
+            s,
+            "nominal model (file):   NRMSE {:.4}  fit {:.1} %",
+            a0.nrmse, a0.fit_percent
+        );
+        let b = &self.base_analysis;
+        let _ = writeln!(
+            s,
+            "calibrated (default set, {} parameters): NRMSE {:.4}  fit {:.1} %  residual {}",
+            self.base.knobs.len(),
+            b.nrmse,
+            b.fit_percent,
+            if b.white { "white" } else { "structured" }
+        );
+        for (k, (v, se)) in self
+            .base
+            .knobs
+            .iter()
+            .zip(self.base.values.iter().zip(&self.base.std_errors))
+        {
+            let _ = writeln!(
+                s,
+                "  {:<28} {:>12.5e} ± {:.2e} {}   (file {:.5e})",
+                k.name,
+                v,
+                se,
+                calibrate::unit(&k.name),
+                calibrate::get(&self.nominal, &k.name)
+            );
+        }
+        for (a, bb, r) in calibrate::inseparable(&self.base, 0.95) {
+            let _ = writeln!(s, "  cannot separate {a} and {bb} (correlation {r:+.3})");
+        }
+        for st in &self.steps {
+            let _ = writeln!(
+                s,
+                "added {:<16} = {:.5e} ± {:.1e} {}: NRMSE {:.4} -> {:.4} (ΔBIC {:.1})",
+                st.effect,
+                st.value,
+                st.std_error,
+                synth::effect_unit(&st.effect).unwrap_or(""),
+                st.nrmse_before,
+                st.nrmse_after,
+                st.delta_bic
+            );
+        }
+        if self.steps.is_empty() {
+            let _ = writeln!(s, "no effect earned its parameter");
+        }
+        let f = &self.final_analysis;
+        let _ = writeln!(
+            s,
+            "final:                  NRMSE {:.4}  fit {:.1} %  residual {} ({} of {} lags outside 99 %)",
+            f.nrmse,
+            f.fit_percent,
+            if f.white { "white" } else { "structured" },
+            f.lags_outside,
+            residual::LAGS
+        );
+        if let Some((a, bb)) = self.validation {
+            let _ = writeln!(s, "validation:             NRMSE {a:.4} -> {bb:.4}");
+        }
+        if self.unexplained {
+            let (lo, hi, sh) = f.dominant_band();
+            let _ = writeln!(
+                s,
+                "UNEXPLAINED: residual still structured; {:.0} % of its energy in {:.0}-{:.0} Hz (peak {:.1} Hz)",
+                100.0 * sh,
+                lo,
+                hi,
+                f.peak_hz
+            );
+            for r in f.concentrated_regimes() {
+                let _ = writeln!(s, "  concentrated in {r}");
+            }
+        }
+        s
+    }
+}
+
+/// Arguments of `geared-servo diagnose`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct DiagnoseArgs {
+    /// Measured record (CSV); repeat for several records fitted together.
+    #[arg(long, value_name = "MEAS.csv", required = true)]
+    pub data: Vec<std::path::PathBuf>,
+    /// Validation record, not fitted: an effect must also lower its error.
+    #[arg(long, value_name = "VAL.csv")]
+    pub validate: Option<std::path::PathBuf>,
+    /// Directory for plots and the calibrated parameter file.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<std::path::PathBuf>,
+    /// Candidate effects (comma-separated; default: all).
+    #[arg(long, value_delimiter = ',')]
+    pub candidates: Option<Vec<String>>,
+    /// Most effects added.
+    #[arg(long, default_value_t = 3)]
+    pub max_steps: usize,
+}
+
+/// `geared-servo diagnose`.
+pub fn run(
+    cli: &crate::host::cli::Cli,
+    a: &DiagnoseArgs,
+) -> Result<crate::host::cli::Report, HostError> {
+    use crate::host::{params_file, plots, record};
+    let (p, name) = crate::host::cli::load_params(cli, None)?;
+    let mut data = Vec::new();
+    for path in &a.data {
+        let rec = record::read(path, true)?;
+        for w in &rec.warnings {
+            eprintln!("warning: {w}");
+        }
+        let mut q = p;
+        q.sample_period_s = rec.sample_period_s;
+        params_file::validate(
+            &q,
+            &format!("{} (sample period of the record)", path.display()),
+        )?;
+        data.push(Data::from_record(&rec, &path.display().to_string())?);
+    }
+    let val = match &a.validate {
+        Some(path) => {
+            let rec = record::read(path, true)?;
+            Some(Data::from_record(&rec, &path.display().to_string())?)
+        }
+        None => None,
+    };
+    let mut opts = Options {
+        max_steps: a.max_steps,
+        ..Options::default()
+    };
+    if let Some(c) = &a.candidates {
+        for n in c {
+            if synth::effect_unit(n).is_none() {
+                return Err(HostError::input(format!(
+                    "--candidates: unknown effect `{n}`"
+                )));
+            }
+        }
+        opts.candidates = c.clone();
+    }
+    let out = diagnose(&p, &data, val.as_ref(), &opts)?;
+    let first = data.first().ok_or_else(|| HostError::input("no record"))?;
+    let mut json = out.to_json(first);
+    json["params"] = json!(name);
+    let mut text = format!(
+        "diagnose {} with {name}\n",
+        a.data
+            .iter()
+            .map(|d| d.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    text.push_str(&out.summary());
+    if let Some(dir) = &a.out {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| HostError::other(format!("{}: cannot create: {e}", dir.display())))?;
+        let toml_path = dir.join("calibrated.toml");
+        let mut header = vec![
+            format!(
+                "calibrated by geared-servo {} diagnose",
+                env!("CARGO_PKG_VERSION")
+            ),
+            format!(
+                "from {name} against {}",
+                a.data
+                    .iter()
+                    .map(|d| d.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            format!(
+                "NRMSE {:.4} (file) -> {:.4} (calibrated)",
+                out.nominal_analysis.nrmse, out.final_analysis.nrmse
+            ),
+        ];
+        if !out.steps.is_empty() {
+            header.push(format!(
+                "effects added: {}",
+                out.steps
+                    .iter()
+                    .map(|s| s.effect.clone())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        let mut fp = out.final_fit.params;
+        fp.sample_period_s = p.sample_period_s;
+        std::fs::write(&toml_path, params_file::to_toml(&fp, &header))
+            .map_err(|e| HostError::other(format!("{}: {e}", toml_path.display())))?;
+        plots::time_series(
+            &dir.join("time.svg"),
+            first,
+            &out.nominal,
+            &out.final_fit.params,
+        )?;
+        plots::residual_spectra(
+            &dir.join("residual_spectra.svg"),
+            first,
+            &out.nominal,
+            &out.final_fit.params,
+        )?;
+        std::fs::write(dir.join("diagnose.json"), format!("{json:#}"))
+            .map_err(|e| HostError::other(format!("{}: {e}", dir.display())))?;
+        text.push_str(&format!(
+            "wrote {}/calibrated.toml, time.svg, residual_spectra.svg, diagnose.json\n",
+            dir.display()
+        ));
+    }
+    Ok(crate::host::cli::Report { json, text })
+}
