@@ -18,9 +18,12 @@ use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
 use rayon::prelude::*;
 
 /// Parameters calibrated by default (those that are non-zero in the file; backlash only when
-/// the file gives one). Datasheet constants (k_t, k_b, k_ts, L) and the ratio stay fixed.
-pub const BASE_KNOBS: [&str; 7] = [
-    "motor.resistance_ohm",
+/// the file gives one). Datasheet constants (k_t, k_b, k_ts, L), the ratio and the armature
+/// resistance stay fixed. R is left out on purpose: when L/R is far below the sample period,
+/// scaling R by 1/s and every mechanical quantity (inertias, stiffness, friction, effects)
+/// by s leaves the voltage-to-tachometer response unchanged (the current scales by s), so the
+/// data cannot separate R from the mechanical scale. R is the one an ohmmeter measures.
+pub const BASE_KNOBS: [&str; 6] = [
     "motor.inertia_kg_m2",
     "load.inertia_kg_m2",
     "stiffness.k_eq_nm_per_rad",
@@ -45,7 +48,8 @@ pub struct Knob {
 }
 
 impl Knob {
-    fn to_z(&self, v: f64) -> f64 {
+    /// Internal coordinate of value `v` (clamped into bounds).
+    pub fn to_z(&self, v: f64) -> f64 {
         let v = v.clamp(self.lo, self.hi);
         if self.log {
             v.ln()
@@ -53,7 +57,8 @@ impl Knob {
             v
         }
     }
-    fn from_z(&self, z: f64) -> f64 {
+    /// Value of internal coordinate `z`, within bounds.
+    pub fn from_z(&self, z: f64) -> f64 {
         let v = if self.log { z.exp() } else { z };
         if v.is_nan() {
             self.lo
@@ -338,8 +343,9 @@ pub fn nrmse(p: &ActuatorParams, d: &Data) -> f64 {
     }
 }
 
-/// Stacked normalised residuals over all records: Σ r² = mean over records of NRMSE².
-fn residuals(p: &ActuatorParams, data: &[Data]) -> DVector<f64> {
+/// Stacked normalised residuals (measured − model) over all records: Σ r² = mean over
+/// records of NRMSE².
+pub fn residuals(p: &ActuatorParams, data: &[Data]) -> DVector<f64> {
     let w = 1.0 / (data.len().max(1) as f64).sqrt();
     let m: usize = data.iter().map(|d| d.y.len()).sum();
     let mut r = Vec::with_capacity(m);
@@ -357,7 +363,8 @@ pub fn cost(p: &ActuatorParams, data: &[Data]) -> f64 {
     data.iter().map(|d| nrmse(p, d).powi(2)).sum::<f64>() / data.len().max(1) as f64
 }
 
-fn apply(p0: &ActuatorParams, knobs: &[Knob], z: &[f64]) -> ActuatorParams {
+/// `p0` with `knobs` set from their internal coordinates `z`.
+pub fn apply(p0: &ActuatorParams, knobs: &[Knob], z: &[f64]) -> ActuatorParams {
     let mut p = *p0;
     for (k, &zi) in knobs.iter().zip(z) {
         set(&mut p, &k.name, k.from_z(zi));
@@ -400,9 +407,9 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 }
 
-/// Central-difference Jacobian of the residuals in the internal coordinates (columns in
-/// parallel).
-fn jacobian(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], z: &[f64]) -> DMatrix<f64> {
+/// Central-difference Jacobian of [`residuals`] with respect to the internal coordinates `z`
+/// of `knobs` (columns in parallel).
+pub fn jacobian(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], z: &[f64]) -> DMatrix<f64> {
     let cols: Vec<DVector<f64>> = (0..knobs.len())
         .into_par_iter()
         .map(|j| {

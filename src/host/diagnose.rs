@@ -84,6 +84,11 @@ pub struct Outcome {
     pub validation: Option<(f64, f64)>,
     /// Residual still structured and no candidate explains it.
     pub unexplained: bool,
+    /// Candidate scores of the last search: (effect, predicted NRMSE, start value).
+    pub last_scores: Vec<(String, f64, f64)>,
+    /// The best candidate of the last search when it did not earn its place:
+    /// (effect, value, NRMSE after its refit).
+    pub rejected: Option<(String, f64, f64)>,
 }
 
 fn rms_nrmse(cost: f64) -> f64 {
@@ -136,6 +141,62 @@ fn grid(p: &ActuatorParams, k: &Knob, max_abs_v: f64) -> Vec<f64> {
     v.into_iter().map(|x| x.clamp(k.lo, k.hi)).collect()
 }
 
+/// Linearised projection of the residual on each candidate: for every grid value v, the
+/// residual change d_v that the effect at v causes (a secant from zero, so the kinks of
+/// friction and backlash near zero do not matter), then the least-squares fit of the residual
+/// by d_v together with the Jacobian of the current knobs (so that what the current knobs
+/// already compensate is not credited to the effect). Returns (knob, predicted cost, start
+/// value), best first.
+fn score(cur: &Fit, cands: &[Knob], data: &[Data], max_v: f64) -> Vec<(Knob, f64, f64)> {
+    let r0 = calibrate::residuals(&cur.params, data);
+    let z: Vec<f64> = cur
+        .knobs
+        .iter()
+        .map(|k| k.to_z(calibrate::get(&cur.params, &k.name)))
+        .collect();
+    let j = calibrate::jacobian(&cur.params, &cur.knobs, data, &z);
+    let base_pred = {
+        let svd = j.clone().svd(true, true);
+        match svd.solve(&r0, 1e-12) {
+            Ok(x) => (&r0 - &j * x).norm_squared(),
+            Err(_) => r0.norm_squared(),
+        }
+    };
+    let mut out: Vec<(Knob, f64, f64)> = cands
+        .iter()
+        .map(|k| {
+            let g = grid(&cur.params, k, max_v);
+            let best = g
+                .par_iter()
+                .filter_map(|&v| {
+                    let mut q = cur.params;
+                    calibrate::set(&mut q, &k.name, v);
+                    // d = r(v) − r0 is minus the model change; fit r0 ≈ −(J δ + α d).
+                    let d = calibrate::residuals(&q, data) - &r0;
+                    let mut a = j.clone().insert_column(j.ncols(), 0.0);
+                    a.set_column(j.ncols(), &d);
+                    let x = a.clone().svd(true, true).solve(&r0, 1e-12).ok()?;
+                    let alpha = -x[j.ncols()];
+                    if !(alpha > 0.0) {
+                        return None;
+                    }
+                    let pred = (&r0 - &a * x).norm_squared();
+                    let start = match k.name.as_str() {
+                        "voltage_limit" => v,
+                        _ => (v * alpha.clamp(0.3, 3.0)).clamp(k.lo, k.hi),
+                    };
+                    Some((pred, start))
+                })
+                .collect::<Vec<_>>()
+                .into_iter()
+                .fold((base_pred, 0.0), |b, x| if x.0 < b.0 { x } else { b });
+            (k.clone(), best.0, best.1)
+        })
+        .collect();
+    out.sort_by(|a, b| a.1.total_cmp(&b.1));
+    out
+}
+
 /// Runs the whole diagnosis on `data` (one or more records) from the file's parameters.
 pub fn diagnose(
     file_params: &ActuatorParams,
@@ -158,6 +219,8 @@ pub fn diagnose(
     let mut cur = base.clone();
     let mut cur_white = base_analysis.white;
     let mut steps = Vec::new();
+    let mut last_scores = Vec::new();
+    let mut rejected: Option<(String, f64, f64)> = None;
     let val_cost = |p: &ActuatorParams| validation.map(|v| calibrate::nrmse(p, v));
     while steps.len() < opts.max_steps && !cur_white {
         let cands: Vec<Knob> = opts
@@ -169,45 +232,49 @@ pub fn diagnose(
         if cands.is_empty() {
             break;
         }
-        // Score: best cost along each candidate's grid, everything else fixed.
-        let mut scores: Vec<(Knob, f64, f64)> = cands
-            .iter()
-            .map(|k| {
-                let g = grid(&cur.params, k, max_v);
-                let best = g
-                    .par_iter()
-                    .map(|&v| {
-                        let mut q = cur.params;
-                        calibrate::set(&mut q, &k.name, v);
-                        (calibrate::cost(&q, data), v)
-                    })
-                    .collect::<Vec<_>>()
-                    .into_iter()
-                    .fold((f64::INFINITY, 0.0), |b, x| if x.0 < b.0 { x } else { b });
-                (k.clone(), best.0, best.1)
-            })
-            .collect();
-        scores.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let scores = score(&cur, &cands, data, max_v);
         let score_list: Vec<(String, f64, f64)> = scores
             .iter()
             .map(|(k, c, v)| (k.name.clone(), rms_nrmse(*c), *v))
             .collect();
-        // Refit the best few (those that explain anything at all).
+        // Refit the best few (those predicted to explain anything at all): coarse search of
+        // every knob around the start, then Levenberg–Marquardt.
         let mut best: Option<(Fit, Knob)> = None;
         for (k, c, v) in scores.iter().take(opts.refit_top) {
-            if !(*c < cur.cost) {
+            if !(*c < cur.cost) || *v == 0.0 {
                 continue;
             }
-            let mut p = cur.params;
-            calibrate::set(&mut p, &k.name, *v);
             let mut ks = cur.knobs.clone();
             ks.push(k.clone());
-            let fit = calibrate::levenberg_marquardt(&p, &ks, data);
-            if best.as_ref().is_none_or(|(b, _)| fit.cost < b.cost) {
-                best = Some((fit, k.clone()));
+            // Two starts: the current fit, and the file's values (with the effects added so
+            // far) — a large missing effect can drag the current fit far off, to the bounds.
+            let mut from_file = nominal;
+            for kn in &cur.knobs {
+                if synth::effect_unit(&kn.name).is_some() {
+                    calibrate::set(
+                        &mut from_file,
+                        &kn.name,
+                        calibrate::get(&cur.params, &kn.name),
+                    );
+                }
+            }
+            for start in [cur.params, from_file] {
+                let mut p = start;
+                calibrate::set(&mut p, &k.name, *v);
+                let (p1, _) = calibrate::coarse_search(&p, &ks, data, 1);
+                let fit = calibrate::levenberg_marquardt(&p1, &ks, data);
+                if best.as_ref().is_none_or(|(b, _)| fit.cost < b.cost) {
+                    best = Some((fit, k.clone()));
+                }
             }
         }
+        last_scores = score_list.clone();
         let Some((fit, k)) = best else { break };
+        rejected = Some((
+            k.name.clone(),
+            fit.values.last().copied().unwrap_or(f64::NAN),
+            rms_nrmse(fit.cost),
+        ));
         let n_eff = effective_samples(&cur.params, data);
         let delta_bic = n_eff * (fit.cost / cur.cost).ln() + n_eff.ln();
         let val_ok = match (val_cost(&cur.params), val_cost(&fit.params)) {
@@ -227,6 +294,7 @@ pub fn diagnose(
             delta_bic,
             scores: score_list,
         });
+        rejected = None;
         cur = fit;
         cur_white = analyse(&cur.params, first)?.0.white;
     }
@@ -245,6 +313,8 @@ pub fn diagnose(
         final_analysis,
         final_fit: cur,
         validation,
+        last_scores,
+        rejected,
     })
 }
 
@@ -297,7 +367,7 @@ impl Outcome {
                 "nrmse_before": s.nrmse_before,
                 "nrmse_after": s.nrmse_after,
                 "delta_bic": s.delta_bic,
-                "candidate_scores": s.scores.iter().map(|(n, c, x)| json!({"effect": n, "nrmse": c, "value": x})).collect::<Vec<_>>(),
+                "candidate_scores": s.scores.iter().map(|(n, c, x)| json!({"effect": n, "predicted_nrmse": c, "start_value": x})).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
             "added_effects": names,
             "final": {
@@ -308,7 +378,11 @@ impl Outcome {
                 "residual": self.final_analysis.to_json(),
             },
             "unexplained": self.unexplained,
+            "last_candidate_scores": self.last_scores.iter().map(|(n, c, x)| json!({"effect": n, "predicted_nrmse": c, "start_value": x})).collect::<Vec<_>>(),
         });
+        if let Some((n, x, e)) = &self.rejected {
+            v["rejected"] = json!({"effect": n, "value": x, "nrmse_after_refit": e, "reason": "did not earn its parameter (BIC or validation)"});
+        }
         if self.unexplained {
             let (lo, hi, sh) = self.final_analysis.dominant_band();
             v["unexplained_band_hz"] = json!([lo, hi]);
