@@ -8,7 +8,8 @@
 //! only if it earns its parameter by the Bayesian information criterion, computed with an
 //! effective sample count n (1 − ρ₁)/(1 + ρ₁) (ρ₁: lag-1 autocorrelation of the residual, so
 //! that a smooth, strongly correlated residual does not count as n independent samples), and,
-//! when a validation record is given, only if it also lowers the validation error. The loop
+//! when a validation record is given, only if it also lowers the validation error; it must
+//! also explain at least 5 % of the residual energy. The loop
 //! stops when the residual is white or no candidate earns its place; structure left then is
 //! reported as unexplained, with the band and regime that hold its energy.
 
@@ -31,6 +32,10 @@ pub struct Options {
     pub refit_top: usize,
     /// ΔBIC an effect must beat (negative: strong evidence at −10, Kass & Raftery 1995).
     pub bic_threshold: f64,
+    /// Least share of the residual energy an effect must explain to be claimed (materiality:
+    /// with a strongly structured residual a small gain can pass the BIC and still say
+    /// nothing about the structure).
+    pub min_explained: f64,
 }
 
 impl Default for Options {
@@ -40,6 +45,7 @@ impl Default for Options {
             max_steps: 3,
             refit_top: 2,
             bic_threshold: -10.0,
+            min_explained: 0.05,
         }
     }
 }
@@ -281,7 +287,8 @@ pub fn diagnose(
             (Some(a), Some(b)) => b < a,
             _ => true,
         };
-        if !(delta_bic < opts.bic_threshold) || !val_ok {
+        let material = fit.cost <= (1.0 - opts.min_explained) * cur.cost;
+        if !(delta_bic < opts.bic_threshold) || !val_ok || !material {
             break;
         }
         let idx = fit.knobs.len() - 1;
