@@ -602,6 +602,21 @@ pub fn calibrate(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> Fit {
     fit
 }
 
+/// Knobs that ended within 1 % (internal coordinate) of a bound: the fit wanted to go
+/// further, a sign that the model lacks something or the bound is wrong.
+pub fn at_bounds(fit: &Fit) -> Vec<String> {
+    fit.knobs
+        .iter()
+        .zip(&fit.values)
+        .filter(|(k, &v)| {
+            let (zl, zh, z) = (k.to_z(k.lo), k.to_z(k.hi), k.to_z(v));
+            let w = (zh - zl).abs().max(1e-300);
+            (z - zl).abs() < 0.01 * w || (zh - z).abs() < 0.01 * w
+        })
+        .map(|(k, _)| k.name.clone())
+        .collect()
+}
+
 /// Pairs of knobs whose estimates correlate beyond `limit` in magnitude: what the data
 /// cannot separate.
 pub fn inseparable(fit: &Fit, limit: f64) -> Vec<(String, String, f64)> {

@@ -345,6 +345,7 @@ fn fit_json(f: &Fit) -> Value {
         "correlation_order": f.knobs.iter().map(|k| k.name.clone()).collect::<Vec<_>>(),
         "correlations": f.correlations,
         "inseparable": calibrate::inseparable(f, 0.95).iter().map(|(a, b, r)| json!({"a": a, "b": b, "correlation": r})).collect::<Vec<_>>(),
+        "at_bounds": calibrate::at_bounds(f),
         "optimiser_moved": f.moved,
         "evaluations": f.evaluations,
     })
@@ -438,6 +439,12 @@ impl Outcome {
                 calibrate::get(&self.nominal, &k.name)
             );
         }
+        for k in calibrate::at_bounds(&self.base) {
+            let _ = writeln!(
+                s,
+                "  {k} is at its bound (the file value x30 or /30): the model lacks something"
+            );
+        }
         for (a, bb, r) in calibrate::inseparable(&self.base, 0.95) {
             let _ = writeln!(s, "  cannot separate {a} and {bb} (correlation {r:+.3})");
         }
@@ -456,6 +463,30 @@ impl Outcome {
         }
         if self.steps.is_empty() {
             let _ = writeln!(s, "no effect earned its parameter");
+            if let Some((n, v, e)) = &self.rejected {
+                let _ = writeln!(
+                    s,
+                    "  best candidate {n} = {v:.4e} {} would give NRMSE {e:.4}: not enough",
+                    synth::effect_unit(n).unwrap_or("")
+                );
+            }
+        } else {
+            let _ = writeln!(s, "final parameters:");
+            for (k, (v, se)) in self
+                .final_fit
+                .knobs
+                .iter()
+                .zip(self.final_fit.values.iter().zip(&self.final_fit.std_errors))
+            {
+                let _ = writeln!(
+                    s,
+                    "  {:<28} {:>12.5e} ± {:.2e} {}",
+                    k.name,
+                    v,
+                    se,
+                    calibrate::unit(&k.name)
+                );
+            }
         }
         let f = &self.final_analysis;
         let _ = writeln!(

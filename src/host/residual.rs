@@ -207,11 +207,12 @@ impl Analysis {
             .fold((0.0, 0.0, -1.0), |b, x| if x.2 > b.2 { x } else { b })
     }
 
-    /// Regimes where the residual's energy share is at least 1.5× their share of samples.
+    /// Regimes holding at least 5 % of the residual energy and at least 1.5× their share of
+    /// the samples.
     pub fn concentrated_regimes(&self) -> Vec<String> {
         self.regimes
             .iter()
-            .filter(|(_, s, e)| *s > 0.0 && *e > 1.5 * s)
+            .filter(|(_, s, e)| *s > 0.0 && *e >= 0.05 && *e > 1.5 * s)
             .map(|(n, s, e)| {
                 format!(
                     "{n} ({:.0} % of the energy in {:.0} % of the time)",
