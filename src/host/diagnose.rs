@@ -43,7 +43,7 @@ impl Default for Options {
         Options {
             candidates: synth::EFFECTS.iter().map(|(n, _)| n.to_string()).collect(),
             max_steps: 3,
-            refit_top: 2,
+            refit_top: 3,
             bic_threshold: -10.0,
             min_explained: 0.05,
         }
@@ -264,18 +264,26 @@ pub fn diagnose(
                     );
                 }
             }
-            for start in [cur.params, from_file] {
+            // The second start only when the current fit sits at a bound (dragged off).
+            let starts: Vec<ActuatorParams> = if calibrate::at_bounds(&cur).is_empty() {
+                vec![cur.params]
+            } else {
+                vec![cur.params, from_file]
+            };
+            for start in starts {
                 let mut p = start;
                 calibrate::set(&mut p, &k.name, *v);
                 let (p1, _) = calibrate::coarse_search(&p, &ks, data, 1);
-                let fit = calibrate::levenberg_marquardt(&p1, &ks, data);
+                // Screening refit (few iterations); the winner is polished below.
+                let fit = calibrate::levenberg_marquardt_with(&p1, &ks, data, 4);
                 if best.as_ref().is_none_or(|(b, _)| fit.cost < b.cost) {
                     best = Some((fit, k.clone()));
                 }
             }
         }
         last_scores = score_list.clone();
-        let Some((fit, k)) = best else { break };
+        let Some((screened, k)) = best else { break };
+        let fit = calibrate::levenberg_marquardt(&screened.params, &screened.knobs, data);
         rejected = Some((
             k.name.clone(),
             fit.values.last().copied().unwrap_or(f64::NAN),
