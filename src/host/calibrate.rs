@@ -530,7 +530,7 @@ pub fn levenberg_marquardt_with(
     let mut z = prob.z.as_slice().to_vec();
     let mut params = apply(p0, knobs, &z);
     let mut c = cost(&params, data);
-    if !(c <= cost_start) {
+    if c.is_nan() || c > cost_start {
         // The optimiser can stop at a worse point when the cost is not smooth: keep the start.
         z = z0.clone();
         params = *p0;
@@ -574,7 +574,9 @@ fn covariance(
         return (vec![f64::INFINITY; n], vec![vec![f64::NAN; n]; n]);
     };
     let cov = inv * (rss / dof);
-    let sd: Vec<f64> = (0..n).map(|i| cov[(i, i)].max(0.0).sqrt()).collect();
+    let sd: Vec<f64> = (0..n)
+        .map(|i| cov.get((i, i)).copied().unwrap_or(0.0).max(0.0).sqrt())
+        .collect();
     let se = knobs
         .iter()
         .zip(&sd)
@@ -585,9 +587,9 @@ fn covariance(
         .map(|a| {
             (0..n)
                 .map(|b| {
-                    let d = sd[a] * sd[b];
+                    let d = sd.get(a).copied().unwrap_or(0.0) * sd.get(b).copied().unwrap_or(0.0);
                     if d > 0.0 {
-                        cov[(a, b)] / d
+                        cov.get((a, b)).copied().unwrap_or(f64::NAN) / d
                     } else {
                         f64::NAN
                     }

@@ -117,7 +117,11 @@ fn effective_samples(p: &ActuatorParams, data: &[Data]) -> f64 {
     let e: Vec<f64> = d.y.iter().zip(&t.y).map(|(a, b)| a - b).collect();
     let m = e.iter().sum::<f64>() / e.len().max(1) as f64;
     let s0: f64 = e.iter().map(|x| (x - m).powi(2)).sum();
-    let s1: f64 = e.windows(2).map(|w| (w[0] - m) * (w[1] - m)).sum();
+    let s1: f64 = e
+        .iter()
+        .zip(e.iter().skip(1))
+        .map(|(a, b)| (a - m) * (b - m))
+        .sum();
     let rho = if s0 > 0.0 {
         (s1 / s0).clamp(0.0, 0.999)
     } else {
@@ -182,8 +186,8 @@ fn score(cur: &Fit, cands: &[Knob], data: &[Data], max_v: f64) -> Vec<(Knob, f64
                     let mut a = j.clone().insert_column(j.ncols(), 0.0);
                     a.set_column(j.ncols(), &d);
                     let x = a.clone().svd(true, true).solve(&r0, 1e-12).ok()?;
-                    let alpha = -x[j.ncols()];
-                    if !(alpha > 0.0) {
+                    let alpha = -x.get(j.ncols()).copied().unwrap_or(f64::NAN);
+                    if alpha.is_nan() || alpha <= 0.0 {
                         return None;
                     }
                     let pred = (&r0 - &a * x).norm_squared();
@@ -247,7 +251,7 @@ pub fn diagnose(
         // every knob around the start, then Levenberg–Marquardt.
         let mut best: Option<(Fit, Knob)> = None;
         for (k, c, v) in scores.iter().take(opts.refit_top) {
-            if !(*c < cur.cost) || *v == 0.0 {
+            if c.is_nan() || *c >= cur.cost || *v == 0.0 {
                 continue;
             }
             let mut ks = cur.knobs.clone();
@@ -296,7 +300,7 @@ pub fn diagnose(
             _ => true,
         };
         let material = fit.cost <= (1.0 - opts.min_explained) * cur.cost;
-        if !(delta_bic < opts.bic_threshold) || !val_ok || !material {
+        if delta_bic.is_nan() || delta_bic >= opts.bic_threshold || !val_ok || !material {
             break;
         }
         let idx = fit.knobs.len() - 1;
@@ -331,6 +335,13 @@ pub fn diagnose(
         last_scores,
         rejected,
     })
+}
+
+/// Adds `key` to a JSON object (no-op on anything else).
+fn insert(v: &mut Value, key: &str, x: Value) {
+    if let Some(o) = v.as_object_mut() {
+        o.insert(key.to_string(), x);
+    }
 }
 
 fn params_json(p: &ActuatorParams, knobs: &[Knob]) -> Value {
@@ -397,17 +408,33 @@ impl Outcome {
             "last_candidate_scores": self.last_scores.iter().map(|(n, c, x)| json!({"effect": n, "predicted_nrmse": c, "start_value": x})).collect::<Vec<_>>(),
         });
         if let Some((n, x, e)) = &self.rejected {
-            v["rejected"] = json!({"effect": n, "value": x, "nrmse_after_refit": e, "reason": "did not earn its parameter (BIC or validation)"});
+            insert(
+                &mut v,
+                "rejected",
+                json!({"effect": n, "value": x, "nrmse_after_refit": e, "reason": "did not earn its parameter (BIC or validation)"}),
+            );
         }
         if self.unexplained {
             let (lo, hi, sh) = self.final_analysis.dominant_band();
-            v["unexplained_band_hz"] = json!([lo, hi]);
-            v["unexplained_band_share"] = json!(sh);
-            v["unexplained_peak_hz"] = json!(self.final_analysis.peak_hz);
-            v["unexplained_regimes"] = json!(self.final_analysis.concentrated_regimes());
+            insert(&mut v, "unexplained_band_hz", json!([lo, hi]));
+            insert(&mut v, "unexplained_band_share", json!(sh));
+            insert(
+                &mut v,
+                "unexplained_peak_hz",
+                json!(self.final_analysis.peak_hz),
+            );
+            insert(
+                &mut v,
+                "unexplained_regimes",
+                json!(self.final_analysis.concentrated_regimes()),
+            );
         }
         if let Some((a, b)) = self.validation {
-            v["validation"] = json!({"nrmse_before": a, "nrmse_after": b});
+            insert(
+                &mut v,
+                "validation",
+                json!({"nrmse_before": a, "nrmse_after": b}),
+            );
         }
         v
     }
@@ -592,7 +619,7 @@ pub fn run(
     let out = diagnose(&p, &data, val.as_ref(), &opts)?;
     let first = data.first().ok_or_else(|| HostError::input("no record"))?;
     let mut json = out.to_json(first);
-    json["params"] = json!(name);
+    insert(&mut json, "params", json!(name));
     let mut text = format!(
         "diagnose {} with {name}\n",
         a.data

@@ -122,15 +122,16 @@ pub fn analyse(y: &[f64], model: &Trace, u: &[f64], h: f64) -> Analysis {
     let mut edges: Vec<f64> = BAND_EDGES_HZ.iter().copied().filter(|&x| x < nyq).collect();
     edges.push(nyq);
     let bands = edges
-        .windows(2)
-        .map(|w| {
+        .iter()
+        .zip(edges.iter().skip(1))
+        .map(|(&lo, &hi)| {
             let s: f64 = f
                 .iter()
                 .zip(&p)
-                .filter(|(fk, _)| **fk >= w[0] && (**fk < w[1] || w[1] >= nyq))
+                .filter(|(fk, _)| **fk >= lo && (**fk < hi || hi >= nyq))
                 .map(|(_, pk)| pk)
                 .sum();
-            (w[0], w[1], s / total)
+            (lo, hi, s / total)
         })
         .collect();
     let peak_hz = f
