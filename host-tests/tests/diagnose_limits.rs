@@ -71,13 +71,27 @@ fn a_mode_outside_the_candidates_is_reported_unexplained_with_its_band() {
         *y += n - c;
     }
     let d = data(&s);
+    let e: f64 = noise
+        .tach_voltage_v
+        .iter()
+        .zip(&clean.tach_voltage_v)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let floor = e / d.norm;
     let out = diagnose(&REFERENCE, &[d], None, &Options::default()).unwrap();
     eprintln!("{}", out.summary());
     assert!(out.unexplained);
+    // An effect may still earn its parameter on part of the residual (a little damping near
+    // the mode), but none is claimed with confidence and none explains the mode away.
     assert!(
-        out.steps.is_empty(),
+        out.steps.iter().all(|s| s.partial),
         "claimed {:?}",
         out.steps.iter().map(|s| &s.effect).collect::<Vec<_>>()
+    );
+    assert!(
+        out.final_analysis.nrmse > 1.5 * floor,
+        "the mode was explained away"
     );
     let (lo, hi, share) = out.final_analysis.dominant_band();
     assert!(

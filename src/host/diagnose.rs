@@ -65,8 +65,11 @@ pub struct Step {
     pub nrmse_after: f64,
     /// ΔBIC of adding it (negative = better).
     pub delta_bic: f64,
-    /// Scores of every candidate at this step: (effect, best 1-D NRMSE, value there).
+    /// Scores of every candidate at this step: (effect, predicted NRMSE, start value).
     pub scores: Vec<(String, f64, f64)>,
+    /// The residual is still structured at the end: this effect earned its parameter but
+    /// does not account for the structure, so it is not claimed with confidence.
+    pub partial: bool,
 }
 
 /// Everything `diagnose` found.
@@ -312,12 +315,16 @@ pub fn diagnose(
             nrmse_after: rms_nrmse(fit.cost),
             delta_bic,
             scores: score_list,
+            partial: false,
         });
         rejected = None;
         cur = fit;
         cur_white = analyse(&cur.params, first)?.0.white;
     }
     let (final_analysis, _) = analyse(&cur.params, first)?;
+    for st in &mut steps {
+        st.partial = !final_analysis.white;
+    }
     let validation = match (val_cost(&nominal), val_cost(&cur.params)) {
         (Some(a), Some(b)) => Some((a, b)),
         _ => None,
@@ -394,6 +401,7 @@ impl Outcome {
                 "nrmse_before": s.nrmse_before,
                 "nrmse_after": s.nrmse_after,
                 "delta_bic": s.delta_bic,
+                "partial": s.partial,
                 "candidate_scores": s.scores.iter().map(|(n, c, x)| json!({"effect": n, "predicted_nrmse": c, "start_value": x})).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
             "added_effects": names,
@@ -486,14 +494,19 @@ impl Outcome {
         for st in &self.steps {
             let _ = writeln!(
                 s,
-                "added {:<16} = {:.5e} ± {:.1e} {}: NRMSE {:.4} -> {:.4} (ΔBIC {:.1})",
+                "added {:<16} = {:.5e} ± {:.1e} {}: NRMSE {:.4} -> {:.4} (ΔBIC {:.1}){}",
                 st.effect,
                 st.value,
                 st.std_error,
                 synth::effect_unit(&st.effect).unwrap_or(""),
                 st.nrmse_before,
                 st.nrmse_after,
-                st.delta_bic
+                st.delta_bic,
+                if st.partial {
+                    "  [partial: structure remains, not claimed with confidence]"
+                } else {
+                    ""
+                }
             );
         }
         if self.steps.is_empty() {
