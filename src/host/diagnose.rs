@@ -278,8 +278,26 @@ pub fn diagnose(
                 vec![cur.params, from_file]
             };
             for start in starts {
+                // Start the effect at the better (by the actual cost) of the projection's
+                // value and the best of its grid with everything else held: the projection
+                // is linear and can undershoot a strongly nonlinear effect.
                 let mut p = start;
                 calibrate::set(&mut p, &k.name, *v);
+                let mut best_c = calibrate::cost(&p, data);
+                let tried: Vec<(f64, ActuatorParams)> = grid(&start, k, max_v)
+                    .par_iter()
+                    .map(|&g| {
+                        let mut q = start;
+                        calibrate::set(&mut q, &k.name, g);
+                        (calibrate::cost(&q, data), q)
+                    })
+                    .collect();
+                for (c, q) in tried {
+                    if c < best_c {
+                        best_c = c;
+                        p = q;
+                    }
+                }
                 let (p1, _) = calibrate::coarse_search(&p, &ks, data, 1);
                 // Screening refit (few iterations); the winner is polished below.
                 let fit = calibrate::levenberg_marquardt_with(&p1, &ks, data, 4);
