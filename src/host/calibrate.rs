@@ -600,10 +600,108 @@ fn covariance(
     (se, corr)
 }
 
+/// Anti-resonance and resonance read off the record's own frequency response (Welch
+/// estimate S_uy/S_uu over the bins the input excites, times f to flatten the integrator
+/// roll-off): the deepest dip below the highest peak. `None` when the record does not show a
+/// clear pair (peak at least twice the dip).
+pub fn frf_notch_peak(d: &Data) -> Option<(f64, f64)> {
+    use rustfft::{num_complex::Complex, FftPlanner};
+    let n = d.y.len();
+    let seg = (n / 4)
+        .clamp(64, 2048)
+        .next_power_of_two()
+        .min(n.next_power_of_two() / 2);
+    if seg < 64 || n < seg {
+        return None;
+    }
+    let fft = FftPlanner::<f64>::new().plan_fft_forward(seg);
+    let win: Vec<f64> = (0..seg)
+        .map(|k| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * k as f64 / seg as f64).cos())
+        .collect();
+    let half = seg / 2;
+    let mut suu = vec![0.0; half];
+    let mut suy = vec![Complex::new(0.0, 0.0); half];
+    let mut start = 0;
+    while start + seg <= n {
+        let seg_of = |x: &[f64]| -> Vec<Complex<f64>> {
+            let c = x.get(start..start + seg).unwrap_or(&[]);
+            let m = c.iter().sum::<f64>() / seg as f64;
+            c.iter()
+                .zip(&win)
+                .map(|(a, w)| Complex::new((a - m) * w, 0.0))
+                .collect()
+        };
+        let mut u = seg_of(&d.volts);
+        let mut y = seg_of(&d.y);
+        fft.process(&mut u);
+        fft.process(&mut y);
+        for (k, (uk, yk)) in u.iter().zip(&y).take(half).enumerate() {
+            if let (Some(a), Some(b)) = (suu.get_mut(k), suy.get_mut(k)) {
+                *a += uk.norm_sqr();
+                *b += uk.conj() * yk;
+            }
+        }
+        start += seg / 2;
+    }
+    let h = d.sample_period_s;
+    let smax = suu.iter().cloned().fold(0.0, f64::max);
+    let bins: Vec<(f64, f64)> = suu
+        .iter()
+        .zip(&suy)
+        .enumerate()
+        .filter_map(|(k, (a, b))| {
+            let f = k as f64 / (seg as f64 * h);
+            (f >= 2.0 && f <= 0.45 / h && *a > 1e-3 * smax).then(|| (f, (b / a).norm() * f))
+        })
+        .collect();
+    let (fp, gp) = bins
+        .iter()
+        .copied()
+        .fold((0.0, -1.0), |b, x| if x.1 > b.1 { x } else { b });
+    let (fn_, gn) = bins
+        .iter()
+        .copied()
+        .filter(|(f, _)| *f < fp)
+        .fold((0.0, f64::INFINITY), |b, x| if x.1 < b.1 { x } else { b });
+    (fn_ > 0.0 && gp > 2.0 * gn).then_some((fn_, fp))
+}
+
+/// A start for the fit from the frequency response (eqs. 17a/b): with J_L from the file,
+/// k_eq = J_L (2π f_AR)² and N² J_m = J_L / ((f_R / f_AR)² − 1).
+pub fn frf_start(p: &ActuatorParams, d: &Data) -> Option<ActuatorParams> {
+    let (f_ar, f_r) = frf_notch_peak(d)?;
+    let n = p.derived().ok()?.n_total;
+    let jl = p.load.inertia_kg_m2;
+    let w = 2.0 * std::f64::consts::PI * f_ar;
+    let ratio = (f_r / f_ar).powi(2) - 1.0;
+    if ratio <= 0.0 {
+        return None;
+    }
+    let mut q = *p;
+    set(&mut q, "stiffness.k_eq_nm_per_rad", jl * w * w);
+    set(&mut q, "motor.inertia_kg_m2", jl / ratio / (n * n));
+    q.derived().ok().map(|_| q)
+}
+
 /// Coarse search, then Levenberg–Marquardt.
 pub fn calibrate(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> Fit {
     let c0 = cost(p0, data);
-    let (p1, _) = coarse_search(p0, knobs, data, 2);
+    // Two starts: the file, and what the record's own frequency response says (MODEL.md:
+    // the cost is multimodal in the resonance frequencies). Keep the better.
+    let mut start = *p0;
+    let names: Vec<&str> = knobs.iter().map(|k| k.name.as_str()).collect();
+    if names.contains(&"stiffness.k_eq_nm_per_rad") && names.contains(&"motor.inertia_kg_m2") {
+        if let Some(q) = data.first().and_then(|d| frf_start(p0, d)) {
+            let inside = knobs.iter().all(|k| {
+                let v = get(&q, &k.name);
+                v >= k.lo && v <= k.hi
+            });
+            if inside && cost(&q, data) < c0 {
+                start = q;
+            }
+        }
+    }
+    let (p1, _) = coarse_search(&start, knobs, data, 2);
     let mut fit = levenberg_marquardt(&p1, knobs, data);
     fit.cost_start = c0;
     let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, &k.name))).collect();
