@@ -500,6 +500,13 @@ impl Outcome {
                 calibrate::get(&self.nominal, &k.name)
             );
         }
+        if self.base.moved < 1e-3 && !b.white {
+            let _ = writeln!(
+                s,
+                "  WARNING: the optimiser did not move from the file's values (largest change {:.1e}): check the start",
+                self.base.moved
+            );
+        }
         for k in calibrate::at_bounds(&self.base) {
             let _ = writeln!(
                 s,
