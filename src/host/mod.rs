@@ -5,7 +5,9 @@
 pub mod calibrate;
 pub mod cli;
 pub mod diagnose;
+pub mod diagnose_report;
 pub mod error;
+pub mod knobs;
 pub mod params_file;
 pub mod plots;
 pub mod record;
