@@ -206,6 +206,31 @@ fn each_bad_file_defect_gives_its_error_and_no_panic() {
     .err()
     .unwrap();
     assert!(e.message.contains("effects.mesh_damping"), "{}", e.message);
+    // An unknown parameter for --fit.
+    let ok = dir.join("ok.csv");
+    cli(&[
+        "synth",
+        "--output",
+        ok.to_str().unwrap(),
+        "--duration",
+        "0.5",
+    ])
+    .unwrap();
+    let e = cli(&[
+        "diagnose",
+        "--data",
+        ok.to_str().unwrap(),
+        "--fit",
+        "motor.bogus",
+    ])
+    .err()
+    .unwrap();
+    assert_eq!(e.kind, ErrorKind::BadInput);
+    assert!(
+        e.message.contains("`motor.bogus` cannot be calibrated"),
+        "{}",
+        e.message
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 

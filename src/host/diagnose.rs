@@ -35,6 +35,9 @@ pub struct Options {
     /// with a strongly structured residual a small gain can pass the BIC and still say
     /// nothing about the structure).
     pub min_explained: f64,
+    /// Parameters to calibrate instead of the default set (key paths of
+    /// [`calibrate::FITTABLE`]); `None`: the default set.
+    pub fit: Option<Vec<String>>,
 }
 
 impl Default for Options {
@@ -45,6 +48,7 @@ impl Default for Options {
             refit_top: 3,
             bic_threshold: -10.0,
             min_explained: 0.05,
+            fit: None,
         }
     }
 }
@@ -224,7 +228,27 @@ pub fn diagnose(
     let max_v = data.iter().map(Data::max_abs_v).fold(0.0, f64::max);
     let (nominal_analysis, _) = analyse(&nominal, first)?;
 
-    let knobs = calibrate::default_knobs(&nominal, max_v);
+    let knobs = match &opts.fit {
+        None => calibrate::default_knobs(&nominal, max_v),
+        Some(names) => {
+            let mut ks = Vec::new();
+            for n in names {
+                if !calibrate::FITTABLE.contains(&n.as_str()) {
+                    return Err(HostError::input(format!(
+                        "--fit: `{n}` cannot be calibrated (known: {})",
+                        calibrate::FITTABLE.join(", ")
+                    )));
+                }
+                if !(calibrate::get(&nominal, n) > 0.0) {
+                    return Err(HostError::input(format!(
+                        "--fit: `{n}` is 0 in the parameter file; give it a starting value there"
+                    )));
+                }
+                ks.push(calibrate::knob(&nominal, n, max_v));
+            }
+            ks
+        }
+    };
     let base = calibrate::calibrate(&nominal, &knobs, data);
     let (base_analysis, _) = analyse(&base.params, first)?;
 

@@ -128,7 +128,7 @@ impl Outcome {
         let b = &self.base_analysis;
         let _ = writeln!(
             s,
-            "calibrated (default set, {} parameters): NRMSE {:.4}  fit {:.1} %  residual {}",
+            "calibrated ({} parameters): NRMSE {:.4}  fit {:.1} %  residual {}",
             self.base.knobs.len(),
             b.nrmse,
             b.fit_percent,
@@ -260,6 +260,10 @@ pub struct DiagnoseArgs {
     /// Most effects added.
     #[arg(long, default_value_t = 3)]
     pub max_steps: usize,
+    /// Parameters to calibrate instead of the default set (comma-separated key paths, e.g.
+    /// `motor.inertia_kg_m2,load.inertia_kg_m2,motor.resistance_ohm`).
+    #[arg(long, value_delimiter = ',')]
+    pub fit: Option<Vec<String>>,
 }
 
 /// `geared-servo diagnose`.
@@ -303,6 +307,9 @@ pub fn run(
             }
         }
         opts.candidates = c.clone();
+    }
+    if let Some(f) = &a.fit {
+        opts.fit = Some(f.clone());
     }
     let out = diagnose(&p, &data, val.as_ref(), &opts)?;
     let first = data.first().ok_or_else(|| HostError::input("no record"))?;

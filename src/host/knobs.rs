@@ -21,6 +21,19 @@ pub const BASE_KNOBS: [&str; 6] = [
     "backlash.total_deg",
 ];
 
+/// Every parameter `diagnose --fit` accepts: the default set, plus the armature resistance and
+/// the tachometer constant (for data that can separate them).
+pub const FITTABLE: [&str; 8] = [
+    "motor.inertia_kg_m2",
+    "load.inertia_kg_m2",
+    "stiffness.k_eq_nm_per_rad",
+    "motor.coulomb_friction_nm",
+    "load.coulomb_friction_nm",
+    "backlash.total_deg",
+    "motor.resistance_ohm",
+    "motor.tach_v_s_per_rad",
+];
+
 /// One adjustable parameter: its name, scale and bounds.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Knob {
