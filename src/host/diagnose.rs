@@ -239,7 +239,7 @@ pub fn diagnose(
                         calibrate::FITTABLE.join(", ")
                     )));
                 }
-                if !(calibrate::get(&nominal, n) > 0.0) {
+                if calibrate::get(&nominal, n).is_nan() || calibrate::get(&nominal, n) <= 0.0 {
                     return Err(HostError::input(format!(
                         "--fit: `{n}` is 0 in the parameter file; give it a starting value there"
                     )));
