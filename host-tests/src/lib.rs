@@ -2,3 +2,4 @@
 //! same physics, and tolerance helpers.
 
 pub mod reference;
+pub mod scenario;

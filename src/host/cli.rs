@@ -115,6 +115,10 @@ pub enum Command {
         #[arg(long, default_value_t = 100.0, value_name = "F")]
         bandwidth_hz: f64,
     },
+    /// Synthetic measured data: excitation, extra effects, tachometer noise, seed.
+    Synth(crate::host::synth::SynthArgs),
+    /// Calibrate, analyse the residual, trace it to a missing effect, report before/after.
+    Diagnose(crate::host::diagnose::DiagnoseArgs),
 }
 
 /// What a command produced: the JSON object and the human-readable text.
@@ -189,6 +193,8 @@ pub fn run(cli: &Cli) -> Result<Report, HostError> {
             measure,
         } => fr_cli::min_voltage(cli, *bandwidth_hz, *backlash_deg, measure),
         Command::Paper { out, bandwidth_hz } => paper::run(cli, out, *bandwidth_hz),
+        Command::Synth(a) => crate::host::synth::run(cli, a),
+        Command::Diagnose(a) => crate::host::diagnose::run(cli, a),
     }
 }
 

@@ -1,0 +1,384 @@
+//! The report of `diagnose`: the JSON object of INTERFACES.md, the human summary, and the
+//! command itself (files in, plots and the calibrated parameter file out).
+
+use crate::host::calibrate::{self, Data, Fit, Knob};
+use crate::host::diagnose::{diagnose, Options, Outcome};
+use crate::host::error::HostError;
+use crate::host::{residual, synth};
+use crate::ActuatorParams;
+use serde_json::{json, Map, Value};
+
+fn rms_nrmse(cost: f64) -> f64 {
+    cost.max(0.0).sqrt()
+}
+
+/// Adds `key` to a JSON object (no-op on anything else).
+fn insert(v: &mut Value, key: &str, x: Value) {
+    if let Some(o) = v.as_object_mut() {
+        o.insert(key.to_string(), x);
+    }
+}
+
+fn params_json(p: &ActuatorParams, knobs: &[Knob]) -> Value {
+    let mut m = Map::new();
+    for k in knobs {
+        m.insert(k.name.clone(), json!(calibrate::get(p, &k.name)));
+    }
+    Value::Object(m)
+}
+
+fn fit_json(f: &Fit) -> Value {
+    let mut se = Map::new();
+    for (k, s) in f.knobs.iter().zip(&f.std_errors) {
+        se.insert(k.name.clone(), json!(s));
+    }
+    json!({
+        "nrmse": rms_nrmse(f.cost),
+        "parameters": params_json(&f.params, &f.knobs),
+        "std_errors": se,
+        "correlation_order": f.knobs.iter().map(|k| k.name.clone()).collect::<Vec<_>>(),
+        "correlations": f.correlations,
+        "inseparable": calibrate::inseparable(f, 0.95).iter().map(|(a, b, r)| json!({"a": a, "b": b, "correlation": r})).collect::<Vec<_>>(),
+        "at_bounds": calibrate::at_bounds(f),
+        "optimiser_moved": f.moved,
+        "evaluations": f.evaluations,
+    })
+}
+
+impl Outcome {
+    /// The JSON object of INTERFACES.md ("diagnose --json"), with more keys.
+    pub fn to_json(&self, first: &Data) -> Value {
+        let names: Vec<String> = self.steps.iter().map(|s| s.effect.clone()).collect();
+        let mut v = json!({
+            "samples": first.y.len(),
+            "sample_period_s": first.sample_period_s,
+            "output": first.output,
+            "preroll_s": first.preroll as f64 * first.sample_period_s,
+            "nominal": {
+                "nrmse": self.nominal_analysis.nrmse,
+                "fit_percent": self.nominal_analysis.fit_percent,
+                "parameters": params_json(&self.nominal, &self.base.knobs),
+            },
+            "calibrated": fit_json(&self.base),
+            "calibrated_residual": self.base_analysis.to_json(),
+            "steps": self.steps.iter().map(|s| json!({
+                "effect": s.effect,
+                "value": s.value,
+                "std_error": s.std_error,
+                "unit": synth::effect_unit(&s.effect).unwrap_or(""),
+                "nrmse_before": s.nrmse_before,
+                "nrmse_after": s.nrmse_after,
+                "delta_bic": s.delta_bic,
+                "partial": s.partial,
+                "indistinguishable_from": s.indistinguishable_from,
+                "candidate_scores": s.scores.iter().map(|(n, c, x)| json!({"effect": n, "predicted_nrmse": c, "start_value": x})).collect::<Vec<_>>(),
+            })).collect::<Vec<_>>(),
+            "added_effects": names,
+            "final": {
+                "nrmse": self.final_analysis.nrmse,
+                "fit_percent": self.final_analysis.fit_percent,
+                "residual_white": self.final_analysis.white,
+                "fit": fit_json(&self.final_fit),
+                "residual": self.final_analysis.to_json(),
+            },
+            "unexplained": self.unexplained,
+            "last_candidate_scores": self.last_scores.iter().map(|(n, c, x)| json!({"effect": n, "predicted_nrmse": c, "start_value": x})).collect::<Vec<_>>(),
+        });
+        if let Some((n, x, e)) = &self.rejected {
+            insert(
+                &mut v,
+                "rejected",
+                json!({"effect": n, "value": x, "nrmse_after_refit": e, "reason": "did not earn its parameter (BIC or validation)"}),
+            );
+        }
+        if self.unexplained {
+            let (lo, hi, sh) = self.final_analysis.dominant_band();
+            insert(&mut v, "unexplained_band_hz", json!([lo, hi]));
+            insert(&mut v, "unexplained_band_share", json!(sh));
+            insert(
+                &mut v,
+                "unexplained_peak_hz",
+                json!(self.final_analysis.peak_hz),
+            );
+            insert(
+                &mut v,
+                "unexplained_regimes",
+                json!(self.final_analysis.concentrated_regimes()),
+            );
+        }
+        if let Some((a, b)) = self.validation {
+            insert(
+                &mut v,
+                "validation",
+                json!({"nrmse_before": a, "nrmse_after": b}),
+            );
+        }
+        v
+    }
+
+    /// Human summary.
+    pub fn summary(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::new();
+        let a0 = &self.nominal_analysis;
+        let _ = writeln!(
+            s,
+            "nominal model (file):   NRMSE {:.4}  fit {:.1} %",
+            a0.nrmse, a0.fit_percent
+        );
+        let b = &self.base_analysis;
+        let _ = writeln!(
+            s,
+            "calibrated ({} parameters): NRMSE {:.4}  fit {:.1} %  residual {}",
+            self.base.knobs.len(),
+            b.nrmse,
+            b.fit_percent,
+            if b.white { "white" } else { "structured" }
+        );
+        for (k, (v, se)) in self
+            .base
+            .knobs
+            .iter()
+            .zip(self.base.values.iter().zip(&self.base.std_errors))
+        {
+            let _ = writeln!(
+                s,
+                "  {:<28} {:>12.5e} ± {:.2e} {}   (file {:.5e})",
+                k.name,
+                v,
+                se,
+                calibrate::unit(&k.name),
+                calibrate::get(&self.nominal, &k.name)
+            );
+        }
+        if self.base.moved < 1e-3 && !b.white {
+            let _ = writeln!(
+                s,
+                "  WARNING: the optimiser did not move from the file's values (largest change {:.1e}): check the start",
+                self.base.moved
+            );
+        }
+        for k in calibrate::at_bounds(&self.base) {
+            let _ = writeln!(
+                s,
+                "  {k} is at its bound (the file value x30 or /30): the model lacks something"
+            );
+        }
+        for (a, bb, r) in calibrate::inseparable(&self.base, 0.95) {
+            let _ = writeln!(s, "  cannot separate {a} and {bb} (correlation {r:+.3})");
+        }
+        for st in &self.steps {
+            let _ = writeln!(
+                s,
+                "added {:<16} = {:.5e} ± {:.1e} {}: NRMSE {:.4} -> {:.4} (ΔBIC {:.1}){}",
+                st.effect,
+                st.value,
+                st.std_error,
+                synth::effect_unit(&st.effect).unwrap_or(""),
+                st.nrmse_before,
+                st.nrmse_after,
+                st.delta_bic,
+                if st.partial {
+                    "  [partial: structure remains, not claimed with confidence]"
+                } else {
+                    ""
+                }
+            );
+        }
+        if self.steps.is_empty() {
+            let _ = writeln!(s, "no effect earned its parameter");
+            if let Some((n, v, e)) = &self.rejected {
+                let _ = writeln!(
+                    s,
+                    "  best candidate {n} = {v:.4e} {} would give NRMSE {e:.4}: not enough",
+                    synth::effect_unit(n).unwrap_or("")
+                );
+            }
+        } else {
+            let _ = writeln!(s, "final parameters:");
+            for (k, (v, se)) in self
+                .final_fit
+                .knobs
+                .iter()
+                .zip(self.final_fit.values.iter().zip(&self.final_fit.std_errors))
+            {
+                let _ = writeln!(
+                    s,
+                    "  {:<28} {:>12.5e} ± {:.2e} {}",
+                    k.name,
+                    v,
+                    se,
+                    calibrate::unit(&k.name)
+                );
+            }
+        }
+        let f = &self.final_analysis;
+        let _ = writeln!(
+            s,
+            "final:                  NRMSE {:.4}  fit {:.1} %  residual {} ({} of {} lags outside 99 %)",
+            f.nrmse,
+            f.fit_percent,
+            if f.white { "white" } else { "structured" },
+            f.lags_outside,
+            residual::LAGS
+        );
+        if let Some((a, bb)) = self.validation {
+            let _ = writeln!(s, "validation:             NRMSE {a:.4} -> {bb:.4}");
+        }
+        if self.unexplained {
+            let (lo, hi, sh) = f.dominant_band();
+            let _ = writeln!(
+                s,
+                "UNEXPLAINED: residual still structured; {:.0} % of its energy in {:.0}-{:.0} Hz (peak {:.1} Hz)",
+                100.0 * sh,
+                lo,
+                hi,
+                f.peak_hz
+            );
+            for r in f.concentrated_regimes() {
+                let _ = writeln!(s, "  concentrated in {r}");
+            }
+        }
+        s
+    }
+}
+
+/// Arguments of `geared-servo diagnose`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct DiagnoseArgs {
+    /// Measured record (CSV); repeat for several records fitted together.
+    #[arg(long, value_name = "MEAS.csv", required = true)]
+    pub data: Vec<std::path::PathBuf>,
+    /// Validation record, not fitted: an effect must also lower its error.
+    #[arg(long, value_name = "VAL.csv")]
+    pub validate: Option<std::path::PathBuf>,
+    /// Directory for plots and the calibrated parameter file.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<std::path::PathBuf>,
+    /// Candidate effects (comma-separated; default: all).
+    #[arg(long, value_delimiter = ',')]
+    pub candidates: Option<Vec<String>>,
+    /// Most effects added.
+    #[arg(long, default_value_t = 3)]
+    pub max_steps: usize,
+    /// Parameters to calibrate instead of the default set (comma-separated key paths, e.g.
+    /// `motor.inertia_kg_m2,load.inertia_kg_m2,motor.resistance_ohm`).
+    #[arg(long, value_delimiter = ',')]
+    pub fit: Option<Vec<String>>,
+}
+
+/// `geared-servo diagnose`.
+pub fn run(
+    cli: &crate::host::cli::Cli,
+    a: &DiagnoseArgs,
+) -> Result<crate::host::cli::Report, HostError> {
+    use crate::host::{diagnose_plots, params_file, record};
+    let (p, name) = crate::host::cli::load_params(cli, None)?;
+    let mut data = Vec::new();
+    for path in &a.data {
+        let rec = record::read(path, true)?;
+        for w in &rec.warnings {
+            eprintln!("warning: {w}");
+        }
+        let mut q = p;
+        q.sample_period_s = rec.sample_period_s;
+        params_file::validate(
+            &q,
+            &format!("{} (sample period of the record)", path.display()),
+        )?;
+        data.push(Data::from_record(&rec, &path.display().to_string())?);
+    }
+    let val = match &a.validate {
+        Some(path) => {
+            let rec = record::read(path, true)?;
+            Some(Data::from_record(&rec, &path.display().to_string())?)
+        }
+        None => None,
+    };
+    let mut opts = Options {
+        max_steps: a.max_steps,
+        ..Options::default()
+    };
+    if let Some(c) = &a.candidates {
+        for n in c {
+            if synth::effect_unit(n).is_none() {
+                return Err(HostError::input(format!(
+                    "--candidates: unknown effect `{n}`"
+                )));
+            }
+        }
+        opts.candidates = c.clone();
+    }
+    if let Some(f) = &a.fit {
+        opts.fit = Some(f.clone());
+    }
+    let out = diagnose(&p, &data, val.as_ref(), &opts)?;
+    let first = data.first().ok_or_else(|| HostError::input("no record"))?;
+    let mut json = out.to_json(first);
+    insert(&mut json, "params", json!(name));
+    let mut text = format!(
+        "diagnose {} with {name}\n",
+        a.data
+            .iter()
+            .map(|d| d.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    text.push_str(&out.summary());
+    if let Some(dir) = &a.out {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| HostError::other(format!("{}: cannot create: {e}", dir.display())))?;
+        let toml_path = dir.join("calibrated.toml");
+        let mut header = vec![
+            format!(
+                "calibrated by geared-servo {} diagnose",
+                env!("CARGO_PKG_VERSION")
+            ),
+            format!(
+                "from {name} against {}",
+                a.data
+                    .iter()
+                    .map(|d| d.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            format!(
+                "NRMSE {:.4} (file) -> {:.4} (calibrated)",
+                out.nominal_analysis.nrmse, out.final_analysis.nrmse
+            ),
+        ];
+        if !out.steps.is_empty() {
+            header.push(format!(
+                "effects added: {}",
+                out.steps
+                    .iter()
+                    .map(|s| s.effect.clone())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        let mut fp = out.final_fit.params;
+        fp.sample_period_s = p.sample_period_s;
+        std::fs::write(&toml_path, params_file::to_toml(&fp, &header))
+            .map_err(|e| HostError::other(format!("{}: {e}", toml_path.display())))?;
+        diagnose_plots::time_series(
+            &dir.join("time.svg"),
+            first,
+            &out.nominal,
+            &out.final_fit.params,
+        )?;
+        diagnose_plots::residual_spectra(
+            &dir.join("residual_spectra.svg"),
+            first,
+            &out.nominal,
+            &out.final_fit.params,
+        )?;
+        std::fs::write(dir.join("diagnose.json"), format!("{json:#}"))
+            .map_err(|e| HostError::other(format!("{}: {e}", dir.display())))?;
+        text.push_str(&format!(
+            "wrote {}/calibrated.toml, time.svg, residual_spectra.svg, diagnose.json\n",
+            dir.display()
+        ));
+    }
+    Ok(crate::host::cli::Report { json, text })
+}

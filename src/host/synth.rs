@@ -1,0 +1,479 @@
+//! Synthetic "measured" data (`geared-servo synth`): an excitation signal, optional effects,
+//! tachometer noise from a seeded generator, written in the measured-data format with the
+//! settings in `# key: value` lines so that a record says how it was made.
+
+use crate::host::error::HostError;
+use crate::{ActuatorParams, Effects, Plant, PlantState};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+/// Effect names (INTERFACES.md "Effect names") with their units, in canonical order.
+pub const EFFECTS: [(&str, &str); 7] = [
+    ("motor_viscous", "N*m*s/rad"),
+    ("load_viscous", "N*m*s/rad"),
+    ("mesh_damping", "N*m*s/rad"),
+    ("hinge_stiffness", "N*m/rad"),
+    ("input_delay", "s"),
+    ("voltage_limit", "V"),
+    ("tach_gain", "-"),
+];
+
+/// The unit of effect `name`, if it is one.
+pub fn effect_unit(name: &str) -> Option<&'static str> {
+    EFFECTS.iter().find(|(n, _)| *n == name).map(|(_, u)| *u)
+}
+
+/// The value of effect `name` in `e`.
+pub fn effect_value(e: &Effects, name: &str) -> Option<f64> {
+    Some(match name {
+        "motor_viscous" => e.motor_viscous,
+        "load_viscous" => e.load_viscous,
+        "mesh_damping" => e.mesh_damping,
+        "hinge_stiffness" => e.hinge_stiffness,
+        "input_delay" => e.input_delay,
+        "voltage_limit" => e.voltage_limit,
+        "tach_gain" => e.tach_gain,
+        _ => return None,
+    })
+}
+
+/// Sets effect `name` in `e`; an unknown name is bad input.
+pub fn set_effect(e: &mut Effects, name: &str, value: f64) -> Result<(), HostError> {
+    let slot = match name {
+        "motor_viscous" => &mut e.motor_viscous,
+        "load_viscous" => &mut e.load_viscous,
+        "mesh_damping" => &mut e.mesh_damping,
+        "hinge_stiffness" => &mut e.hinge_stiffness,
+        "input_delay" => &mut e.input_delay,
+        "voltage_limit" => &mut e.voltage_limit,
+        "tach_gain" => &mut e.tach_gain,
+        _ => {
+            let names: Vec<&str> = EFFECTS.iter().map(|(n, _)| *n).collect();
+            return Err(HostError::input(format!(
+                "unknown effect `{name}` (known: {})",
+                names.join(", ")
+            )));
+        }
+    };
+    *slot = value;
+    Ok(())
+}
+
+/// Parses `NAME=VALUE` of `--effect`.
+pub fn parse_effect(arg: &str) -> Result<(String, f64), HostError> {
+    let (n, v) = arg
+        .split_once('=')
+        .ok_or_else(|| HostError::input(format!("--effect `{arg}`: expected NAME=VALUE")))?;
+    let n = n.trim();
+    effect_unit(n).ok_or_else(|| {
+        let names: Vec<&str> = EFFECTS.iter().map(|(n, _)| *n).collect();
+        HostError::input(format!(
+            "--effect `{arg}`: unknown effect `{n}` (known: {})",
+            names.join(", ")
+        ))
+    })?;
+    let x: f64 = v
+        .trim()
+        .parse()
+        .map_err(|_| HostError::input(format!("--effect `{arg}`: `{v}` is not a number")))?;
+    if !x.is_finite() {
+        return Err(HostError::input(format!(
+            "--effect `{arg}`: value is not finite"
+        )));
+    }
+    Ok((n.to_string(), x))
+}
+
+/// Excitation waveforms.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Excitation {
+    /// Sines at `steps` log-spaced frequencies from f_min to f_max, equal dwell each.
+    SteppedSine,
+    /// Logarithmic chirp (exponential sweep) from f_min to f_max over the duration.
+    Chirp,
+    /// Sum of sines on a log grid of `steps` lines from f_min to f_max, random phases,
+    /// scaled to the amplitude's peak.
+    Multisine,
+    /// Pseudo-random binary sequence (±amplitude) changing at most every 1/f_max s.
+    Prbs,
+    /// Square wave (±amplitude) at f_min.
+    Square,
+}
+
+impl Excitation {
+    /// The name `synth --excitation` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Excitation::SteppedSine => "stepped-sine",
+            Excitation::Chirp => "chirp",
+            Excitation::Multisine => "multisine",
+            Excitation::Prbs => "prbs",
+            Excitation::Square => "square",
+        }
+    }
+}
+
+/// Everything that defines a synthetic record besides the parameter set.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SynthSpec {
+    /// Waveform.
+    pub excitation: Excitation,
+    /// Peak voltage, V.
+    pub amplitude_v: f64,
+    /// Lowest frequency, Hz.
+    pub f_min_hz: f64,
+    /// Highest frequency, Hz.
+    pub f_max_hz: f64,
+    /// Frequencies of the stepped sine / lines of the multisine.
+    pub steps: usize,
+    /// Record length, s.
+    pub duration_s: f64,
+    /// Sample period, s.
+    pub sample_period_s: f64,
+    /// Standard deviation of white Gaussian noise added to the tachometer, V.
+    pub tach_noise_v: f64,
+    /// Seed of the ChaCha8 generator (phases, PRBS, noise).
+    pub seed: u64,
+}
+
+impl SynthSpec {
+    /// Checks ranges; errors name the option.
+    pub fn validate(&self) -> Result<(), HostError> {
+        let bad = |o: &str, why: &str| Err(HostError::input(format!("--{o}: {why}")));
+        if !(self.amplitude_v.is_finite() && self.amplitude_v >= 0.0) {
+            return bad("amplitude", "must be finite and >= 0");
+        }
+        if !(self.f_min_hz.is_finite() && self.f_min_hz > 0.0) {
+            return bad("f-min", "must be > 0");
+        }
+        if !(self.f_max_hz.is_finite() && self.f_max_hz >= self.f_min_hz) {
+            return bad("f-max", "must be >= f-min");
+        }
+        if !(self.sample_period_s.is_finite() && self.sample_period_s > 0.0) {
+            return bad("sample-period", "must be > 0");
+        }
+        if self.f_max_hz >= 0.5 / self.sample_period_s {
+            return bad("f-max", "must be below the Nyquist frequency");
+        }
+        if !(self.duration_s.is_finite() && self.duration_s >= 2.0 * self.sample_period_s) {
+            return bad("duration", "must cover at least two samples");
+        }
+        if self.duration_s / self.sample_period_s > 1e8 {
+            return bad("duration", "more than 1e8 samples");
+        }
+        if self.steps == 0 {
+            return bad("steps", "must be >= 1");
+        }
+        if !(self.tach_noise_v.is_finite() && self.tach_noise_v >= 0.0) {
+            return bad("noise", "must be finite and >= 0");
+        }
+        Ok(())
+    }
+
+    /// Number of rows.
+    pub fn samples(&self) -> usize {
+        (self.duration_s / self.sample_period_s).round() as usize
+    }
+
+    /// `# key: value` lines describing the settings.
+    pub fn comments(&self) -> Vec<String> {
+        vec![
+            format!("excitation: {}", self.excitation.name()),
+            format!("amplitude_v: {}", self.amplitude_v),
+            format!("f_min_hz: {}", self.f_min_hz),
+            format!("f_max_hz: {}", self.f_max_hz),
+            format!("steps: {}", self.steps),
+            format!("duration_s: {}", self.duration_s),
+            format!("sample_period_s: {}", self.sample_period_s),
+            format!("tach_noise_v: {}", self.tach_noise_v),
+            format!("seed: {}", self.seed),
+        ]
+    }
+}
+
+fn log_freqs(spec: &SynthSpec) -> Vec<f64> {
+    let n = spec.steps;
+    if n == 1 {
+        return vec![spec.f_min_hz];
+    }
+    let r = (spec.f_max_hz / spec.f_min_hz).ln();
+    (0..n)
+        .map(|k| spec.f_min_hz * (r * k as f64 / (n - 1) as f64).exp())
+        .collect()
+}
+
+/// The commanded voltage, one value per row (held until the next row), V.
+pub fn excitation(spec: &SynthSpec, rng: &mut ChaCha8Rng) -> Vec<f64> {
+    use std::f64::consts::PI;
+    let n = spec.samples();
+    let h = spec.sample_period_s;
+    let a = spec.amplitude_v;
+    let t = |k: usize| k as f64 * h;
+    match spec.excitation {
+        Excitation::SteppedSine => {
+            let f = log_freqs(spec);
+            let per = n.div_ceil(f.len()).max(1);
+            (0..n)
+                .map(|k| {
+                    let fi = f.get(k / per).copied().unwrap_or(spec.f_max_hz);
+                    let tl = (k % per) as f64 * h;
+                    a * (2.0 * PI * fi * tl).sin()
+                })
+                .collect()
+        }
+        Excitation::Chirp => {
+            let d = spec.duration_s;
+            let r = (spec.f_max_hz / spec.f_min_hz).ln();
+            (0..n)
+                .map(|k| {
+                    // Phase of an exponential sweep: 2π f0 d/ln(r) (e^{t ln(r)/d} − 1).
+                    let ph = if r > 0.0 {
+                        2.0 * PI * spec.f_min_hz * d / r * ((t(k) * r / d).exp() - 1.0)
+                    } else {
+                        2.0 * PI * spec.f_min_hz * t(k)
+                    };
+                    a * ph.sin()
+                })
+                .collect()
+        }
+        Excitation::Multisine => {
+            let f = log_freqs(spec);
+            let ph: Vec<f64> = f.iter().map(|_| rng.gen::<f64>() * 2.0 * PI).collect();
+            let raw: Vec<f64> = (0..n)
+                .map(|k| {
+                    f.iter()
+                        .zip(&ph)
+                        .map(|(fi, p)| (2.0 * PI * fi * t(k) + p).sin())
+                        .sum()
+                })
+                .collect();
+            let peak = raw.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1e-12);
+            raw.into_iter().map(|x| a * x / peak).collect()
+        }
+        Excitation::Prbs => {
+            let hold = ((1.0 / (spec.f_max_hz * h)).round() as usize).max(1);
+            let mut level = a;
+            (0..n)
+                .map(|k| {
+                    if k % hold == 0 {
+                        level = if rng.gen::<bool>() { a } else { -a };
+                    }
+                    level
+                })
+                .collect()
+        }
+        Excitation::Square => (0..n)
+            .map(|k| {
+                if (t(k) * spec.f_min_hz).fract() < 0.5 {
+                    a
+                } else {
+                    -a
+                }
+            })
+            .collect(),
+    }
+}
+
+/// A synthetic record: rows' times, commanded voltages and the (noisy) tachometer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Synthetic {
+    /// Sample instants, s.
+    pub time_s: Vec<f64>,
+    /// Commanded voltage per row, V.
+    pub motor_voltage_v: Vec<f64>,
+    /// Tachometer voltage sampled at each row (noise included), V.
+    pub tach_voltage_v: Vec<f64>,
+}
+
+/// Simulates `p` (at the spec's sample period) on the spec's excitation from rest and adds
+/// the tachometer noise. Deterministic for a given seed.
+pub fn synthesize(p: &ActuatorParams, spec: &SynthSpec) -> Result<Synthetic, HostError> {
+    spec.validate()?;
+    let mut p = *p;
+    p.sample_period_s = spec.sample_period_s;
+    let plant = Plant::new(&p)
+        .map_err(|e| HostError::input(format!("key `{}` {}", e.field(), e.reason())))?;
+    let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
+    let volts = excitation(spec, &mut rng);
+    let noise = Normal::new(0.0, spec.tach_noise_v)
+        .map_err(|e| HostError::input(format!("--noise: {e}")))?;
+    let mut st = PlantState::REST;
+    let mut o = plant.outputs(&st);
+    let mut tach = Vec::with_capacity(volts.len());
+    for &v in &volts {
+        tach.push(f64::from(o.tach_voltage_v) + noise.sample(&mut rng));
+        o = plant.step(&mut st, v as f32);
+    }
+    let time_s = (0..volts.len())
+        .map(|k| k as f64 * spec.sample_period_s)
+        .collect();
+    Ok(Synthetic {
+        time_s,
+        motor_voltage_v: volts,
+        tach_voltage_v: tach,
+    })
+}
+
+/// Arguments of `geared-servo synth`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct SynthArgs {
+    /// Output CSV (measured-data format).
+    #[arg(long, value_name = "OUT.csv")]
+    pub output: std::path::PathBuf,
+    /// Excitation waveform.
+    #[arg(long, value_enum, default_value = "multisine")]
+    pub excitation: Excitation,
+    /// Peak voltage, V.
+    #[arg(long, default_value_t = 10.0)]
+    pub amplitude: f64,
+    /// Lowest frequency (square-wave frequency), Hz.
+    #[arg(long, default_value_t = 2.0)]
+    pub f_min: f64,
+    /// Highest frequency (PRBS clock), Hz.
+    #[arg(long, default_value_t = 300.0)]
+    pub f_max: f64,
+    /// Frequencies of the stepped sine / lines of the multisine.
+    #[arg(long, default_value_t = 40)]
+    pub steps: usize,
+    /// Record length, s.
+    #[arg(long, default_value_t = 4.0)]
+    pub duration: f64,
+    /// Sample period, s (default: the parameter file's).
+    #[arg(long)]
+    pub sample_period: Option<f64>,
+    /// An effect present in the data, NAME=VALUE (repeatable).
+    #[arg(long = "effect", value_name = "NAME=VALUE")]
+    pub effects: Vec<String>,
+    /// Standard deviation of the tachometer noise, V.
+    #[arg(long, default_value_t = 0.0)]
+    pub noise: f64,
+    /// Seed of the random generator.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+/// `geared-servo synth`.
+pub fn run(
+    cli: &crate::host::cli::Cli,
+    a: &SynthArgs,
+) -> Result<crate::host::cli::Report, HostError> {
+    let (mut p, name) = crate::host::cli::load_params(cli, None)?;
+    let mut applied = Vec::new();
+    for e in &a.effects {
+        let (n, v) = parse_effect(e)?;
+        set_effect(&mut p.effects, &n, v)?;
+        applied.push(format!("effect_{n}: {v}"));
+    }
+    let spec = SynthSpec {
+        excitation: a.excitation,
+        amplitude_v: a.amplitude,
+        f_min_hz: a.f_min,
+        f_max_hz: a.f_max,
+        steps: a.steps,
+        duration_s: a.duration,
+        sample_period_s: a.sample_period.unwrap_or(p.sample_period_s),
+        tach_noise_v: a.noise,
+        seed: a.seed,
+    };
+    spec.validate()?;
+    p.sample_period_s = spec.sample_period_s;
+    crate::host::params_file::validate(&p, &format!("{name} with --effect/--sample-period"))?;
+    let s = synthesize(&p, &spec)?;
+    let mut comments = vec![
+        format!(
+            "generated by: geared-servo {} synth",
+            env!("CARGO_PKG_VERSION")
+        ),
+        format!("params: {name}"),
+    ];
+    comments.extend(spec.comments());
+    comments.extend(applied);
+    crate::host::record::write(
+        &a.output,
+        &comments,
+        &[
+            ("time_s", &s.time_s),
+            ("motor_voltage_v", &s.motor_voltage_v),
+            ("tach_voltage_v", &s.tach_voltage_v),
+        ],
+    )?;
+    let json = serde_json::json!({
+        "output": a.output.display().to_string(),
+        "rows": s.time_s.len(),
+        "sample_period_s": spec.sample_period_s,
+        "excitation": spec.excitation.name(),
+        "effects": a.effects,
+        "tach_noise_v": spec.tach_noise_v,
+        "seed": spec.seed,
+    });
+    let text = format!(
+        "wrote {} rows ({} excitation, {} V peak, noise {} V, seed {}) to {}",
+        s.time_s.len(),
+        spec.excitation.name(),
+        spec.amplitude_v,
+        spec.tach_noise_v,
+        spec.seed,
+        a.output.display()
+    );
+    Ok(crate::host::cli::Report { json, text })
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn spec(e: Excitation) -> SynthSpec {
+        SynthSpec {
+            excitation: e,
+            amplitude_v: 5.0,
+            f_min_hz: 2.0,
+            f_max_hz: 200.0,
+            steps: 8,
+            duration_s: 0.5,
+            sample_period_s: 0.0005,
+            tach_noise_v: 0.01,
+            seed: 7,
+        }
+    }
+
+    #[test]
+    fn every_excitation_stays_within_its_amplitude() {
+        for e in [
+            Excitation::SteppedSine,
+            Excitation::Chirp,
+            Excitation::Multisine,
+            Excitation::Prbs,
+            Excitation::Square,
+        ] {
+            let s = spec(e);
+            let v = excitation(&s, &mut ChaCha8Rng::seed_from_u64(1));
+            assert_eq!(v.len(), 1000);
+            let peak = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            assert!(peak <= 5.0 + 1e-12 && peak > 4.0, "{e:?}: {peak}");
+        }
+    }
+
+    #[test]
+    fn same_seed_same_record_other_seed_other_noise() {
+        let p = crate::REFERENCE;
+        let a = synthesize(&p, &spec(Excitation::Multisine)).unwrap();
+        let b = synthesize(&p, &spec(Excitation::Multisine)).unwrap();
+        assert_eq!(a, b);
+        let mut s2 = spec(Excitation::Multisine);
+        s2.seed = 8;
+        let c = synthesize(&p, &s2).unwrap();
+        assert_ne!(a.tach_voltage_v, c.tach_voltage_v);
+    }
+
+    #[test]
+    fn unknown_effect_name_is_bad_input() {
+        assert!(parse_effect("friction=1").is_err());
+        assert!(parse_effect("tach_gain").is_err());
+        assert_eq!(
+            parse_effect("tach_gain=0.1").unwrap(),
+            ("tach_gain".to_string(), 0.1)
+        );
+    }
+}
