@@ -1,7 +1,7 @@
 //! The per-step arithmetic: mode of a state, exact advance within a mode, whole-step check.
 
 use super::modes::ModeSet;
-use super::modes::{Extra, Input, Mode, Motion, Vec5, COL_V, MOTOR_STUCK, NO_TRANSITION};
+use super::modes::{Extra, Input, Mode, Motion, Transition, Vec5, MOTOR_STUCK};
 use super::sine::SineDrive;
 use super::{Plant, I, TH, WL, WM, X};
 use crate::faults::{Jam, PlantFaults};
@@ -202,13 +202,20 @@ impl Plant {
     }
 
     /// Exact advance within one mode over the set's step with input `inp`.
+    ///
+    /// Each row is the same balanced sum of products as the full product
+    /// `((p0 + p1) + (p2 + p3)) + ((p4 + p5) + (p6 + p7))` over `[i, ωm, ωL, x, θL, V, τm, τL]`
+    /// with the mode's structurally zero products left out and its unit coefficients taken
+    /// as they are (see [`ModeSet`]): the same value as the full product, with short
+    /// dependency chains, exactly odd in (s, v, τ), and the same operations in the same order
+    /// on every target, so the results are bit-identical everywhere.
     #[inline(always)]
     pub(super) fn advance(&self, c: &Ctx, set: &ModeSet, m: &Mode, s: &Vec5, inp: &Input) -> Vec5 {
         let Some(idx) = m.index() else {
             // Both bodies stuck: only the current moves. Its row in a motor-stuck mode is
             // exactly that (no back-EMF), with every voltage column.
-            let t = set.modes.get(MOTOR_STUCK).unwrap_or(&NO_TRANSITION);
-            let mut i = t.cols[I][I] * s[I] + t.cols[COL_V][I] * inp.v;
+            let [pi, pv] = set.motor_stuck_gap.i;
+            let mut i = pi * s[I] + pv * inp.v;
             match inp.extra {
                 Extra::None => {}
                 Extra::Late(cols, dv) => i += cols.get(MOTOR_STUCK).map_or(0.0, |c| c[I]) * dv,
@@ -224,36 +231,57 @@ impl Plant {
             out[WL] = 0.0;
             return out;
         };
-        let t = set.modes.get(idx).unwrap_or(&NO_TRANSITION);
         let (tm, tl) = self.forcing(c, m);
         let v = inp.v;
-        let c = &t.cols;
-        let u = [s[0], s[1], s[2], s[3], s[4], v, tm, tl];
-        // Balanced sum per row: short dependency chains, the same tree in every row, and
-        // still exactly odd in (s, v, τ). Every row computes the same products and sums in
-        // the same order on every target, so the results are bit-identical everywhere.
-        macro_rules! row {
-            ($r:literal) => {
-                ((c[0][$r] * u[0] + c[1][$r] * u[1]) + (c[2][$r] * u[2] + c[3][$r] * u[3]))
-                    + ((c[4][$r] * u[4] + c[5][$r] * u[5]) + (c[6][$r] * u[6] + c[7][$r] * u[7]))
-            };
-        }
-        // On x86-64 rows 0–3 go as one SSE vector (`wide`); elsewhere (Cortex-M has no
-        // SIMD for f32) plain scalar code is shorter.
-        #[cfg(target_arch = "x86_64")]
-        let q = {
-            let lanes = |j: usize| -> wide::f32x4 {
-                let col = c.get(j).unwrap_or(&[0.0; 5]);
-                let x = u.get(j).copied().unwrap_or(0.0);
-                wide::f32x4::new([col[0], col[1], col[2], col[3]]) * wide::f32x4::splat(x)
-            };
-            (((lanes(0) + lanes(1)) + (lanes(2) + lanes(3)))
-                + ((lanes(4) + lanes(5)) + (lanes(6) + lanes(7))))
-            .to_array()
+        let [si, wm, wl, x, th] = *s;
+        let mut out = match idx {
+            0 => {
+                let t = &set.free_gap;
+                let mot = |r: &[f32; 4]| (r[0] * si + r[1] * wm) + (r[2] * v + r[3] * tm);
+                let load = |r: &[f32; 3]| r[0] * wl + (r[1] * th + r[2] * tl);
+                let [m0, m1] = &t.motor;
+                let [l0, l1] = &t.load;
+                let r = &t.x;
+                let xr = ((r[0] * si + r[1] * wm) + (r[2] * wl + x))
+                    + ((r[3] * th + r[4] * v) + (r[5] * tm + r[6] * tl));
+                [mot(m0), mot(m1), load(l0), xr, load(l1)]
+            }
+            1 => {
+                let t = &set.motor_stuck_gap;
+                let [l0, l1, l2] = &t.load;
+                [
+                    t.i[0] * si + t.i[1] * v,
+                    0.0,
+                    l0[0] * wl + (l0[1] * th + l0[2] * tl),
+                    (l2[0] * wl + x) + (l2[1] * th + l2[2] * tl),
+                    l1[0] * wl + (l1[1] * th + l1[2] * tl),
+                ]
+            }
+            2 => {
+                let [r0, r1, r2] = &set.load_stuck_gap.rows;
+                let mot = |r: &[f32; 4]| (r[0] * si + r[1] * wm) + (r[2] * v + r[3] * tm);
+                [
+                    mot(r0),
+                    mot(r1),
+                    0.0,
+                    ((r2[0] * si + r2[1] * wm) + x) + (r2[2] * v + r2[3] * tm),
+                    th,
+                ]
+            }
+            4 => {
+                let t = &set.motor_stuck_contact;
+                let load = |r: &[f32; 4]| (r[0] * wl + r[1] * x) + (r[2] * th + r[3] * tl);
+                let [l0, l1, l2] = &t.load;
+                [t.i[0] * si + t.i[1] * v, 0.0, load(l0), load(l1), load(l2)]
+            }
+            5 => {
+                let [r0, r1, r2] = &set.load_stuck_contact.rows;
+                let mot =
+                    |r: &[f32; 5]| ((r[0] * si + r[1] * wm) + r[2] * x) + (r[3] * v + r[4] * tm);
+                [mot(r0), mot(r1), 0.0, mot(r2), th]
+            }
+            _ => Self::full_product(&set.free_contact, &[si, wm, wl, x, th, v, tm, tl]),
         };
-        #[cfg(not(target_arch = "x86_64"))]
-        let q = [row!(0), row!(1), row!(2), row!(3)];
-        let mut out = [q[0], q[1], q[2], q[3], row!(4)];
         match inp.extra {
             Extra::None => {}
             Extra::Late(cols, dv) => {
@@ -278,6 +306,34 @@ impl Plant {
             out[WL] = 0.0;
         }
         out
+    }
+
+    /// The full product `Φ s + Γ u` of a transition with `u = [s, V, τm, τL]`.
+    #[inline(always)]
+    fn full_product(t: &Transition, u: &[f32; 8]) -> Vec5 {
+        let c = &t.cols;
+        macro_rules! row {
+            ($r:literal) => {
+                ((c[0][$r] * u[0] + c[1][$r] * u[1]) + (c[2][$r] * u[2] + c[3][$r] * u[3]))
+                    + ((c[4][$r] * u[4] + c[5][$r] * u[5]) + (c[6][$r] * u[6] + c[7][$r] * u[7]))
+            };
+        }
+        // On x86-64 rows 0–3 go as one SSE vector (`wide`), the same sums in the same order;
+        // elsewhere (Cortex-M has no SIMD for f32) plain scalar code is shorter.
+        #[cfg(target_arch = "x86_64")]
+        let q = {
+            let lanes = |j: usize| -> wide::f32x4 {
+                let col = c.get(j).unwrap_or(&[0.0; 5]);
+                let x = u.get(j).copied().unwrap_or(0.0);
+                wide::f32x4::new([col[0], col[1], col[2], col[3]]) * wide::f32x4::splat(x)
+            };
+            (((lanes(0) + lanes(1)) + (lanes(2) + lanes(3)))
+                + ((lanes(4) + lanes(5)) + (lanes(6) + lanes(7))))
+            .to_array()
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let q = [row!(0), row!(1), row!(2), row!(3)];
+        [q[0], q[1], q[2], q[3], row!(4)]
     }
 
     /// One held-voltage step: `v_early` over the first `delay_frac` of it, `v_late` after.
