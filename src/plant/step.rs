@@ -210,7 +210,13 @@ impl Plant {
     /// dependency chains, exactly odd in (s, v, τ), and the same operations in the same order
     /// on every target, so the results are bit-identical everywhere.
     #[inline(always)]
-    pub(super) fn advance(&self, c: &Ctx, set: &ModeSet, m: &Mode, s: &Vec5, inp: &Input) -> Vec5 {
+    pub(super) fn advance(
+        set: &ModeSet,
+        m: &Mode,
+        (tm, tl): (f32, f32),
+        s: &Vec5,
+        inp: &Input,
+    ) -> Vec5 {
         let Some(idx) = m.index() else {
             // Both bodies stuck: only the current moves. Its row in a motor-stuck mode is
             // exactly that (no back-EMF), with every voltage column.
@@ -231,7 +237,6 @@ impl Plant {
             out[WL] = 0.0;
             return out;
         };
-        let (tm, tl) = self.forcing(c, m);
         let v = inp.v;
         let [si, wm, wl, x, th] = *s;
         let mut out = match idx {
@@ -339,6 +344,7 @@ impl Plant {
     /// One held-voltage step: `v_early` over the first `delay_frac` of it, `v_late` after.
     pub(super) fn advance_step(&self, c: &Ctx, s0: &Vec5, v_early: f32, v_late: f32) -> Vec5 {
         let m = self.mode_at(c, s0);
+        let f = self.forcing(c, &m);
         let split = self.delay_frac > 0.0;
         let s1 = if split {
             let inp = Input {
@@ -346,14 +352,14 @@ impl Plant {
                 v_eff: v_late,
                 extra: Extra::Late(&self.late_v, v_late - v_early),
             };
-            self.advance(c, &self.full, &m, s0, &inp)
+            Self::advance(&self.full, &m, f, s0, &inp)
         } else {
-            self.advance(c, &self.full, &m, s0, &Input::held(v_late))
+            Self::advance(&self.full, &m, f, s0, &Input::held(v_late))
         };
         if !self.always_sub && self.consistent(c, &m, s0, &s1) {
             return s1;
         }
-        let mut s = *s0;
+        let (mut s, mut m, mut f) = (*s0, m, f);
         let n_sub = self.sub_steps as usize;
         for j in 0..n_sub {
             // Voltage over this sub-step: the time-weighted mean where the delay's split
@@ -373,7 +379,12 @@ impl Plant {
             } else {
                 v_late
             };
-            s = self.sub_step(c, &s, &Input::held(v));
+            let event;
+            (s, event) = self.sub_step(c, &m, f, &s, &Input::held(v));
+            if event {
+                m = self.mode_at(c, &s);
+                f = self.forcing(c, &m);
+            }
         }
         s
     }
@@ -395,11 +406,12 @@ impl Plant {
             v_eff: v_mid,
             extra: Extra::Sine(&d.full, a_cos, a_sin),
         };
-        let s1 = self.advance(c, &self.full, &m, s0, &inp);
+        let f = self.forcing(c, &m);
+        let s1 = Self::advance(&self.full, &m, f, s0, &inp);
         if !self.always_sub && self.consistent(c, &m, s0, &s1) {
             return s1;
         }
-        let mut s = *s0;
+        let (mut s, mut m, mut f) = (*s0, m, f);
         let (mut ac, mut asn) = (a_cos, a_sin);
         let [cr, sr] = d.rot_sub;
         for _ in 0..self.sub_steps {
@@ -409,7 +421,12 @@ impl Plant {
                 v_eff: v_mid,
                 extra: Extra::Sine(&d.sub, ac, asn),
             };
-            s = self.sub_step(c, &s, &inp);
+            let event;
+            (s, event) = self.sub_step(c, &m, f, &s, &inp);
+            if event {
+                m = self.mode_at(c, &s);
+                f = self.forcing(c, &m);
+            }
             // Move the phase origin to the next sub-step's start.
             (ac, asn) = (ac * cr + asn * sr, asn * cr - ac * sr);
         }
