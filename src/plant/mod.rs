@@ -206,6 +206,8 @@ pub struct Plant {
     /// Every step is sub-stepped (the sample period is long against the mechanical periods).
     always_sub: bool,
     delay_steps: u8,
+    /// There is an input delay (`delay_steps` or `delay_frac` non-zero).
+    has_delay: bool,
     /// Fraction of a step during which the older command still applies.
     delay_frac: f32,
 }
@@ -274,6 +276,7 @@ impl Plant {
             sub_steps: sub_steps as u16,
             always_sub,
             delay_steps: whole as u8,
+            has_delay: whole > 0.0 || frac > 0.0,
             delay_frac: frac as f32,
         })
     }
@@ -326,7 +329,11 @@ impl Plant {
         let nominal = faults.is_none_or(|f| *f == PlantFaults::NONE);
         let faults = faults.unwrap_or(&PlantFaults::NONE);
         let cmd = self.saturate(voltage_v);
-        let (mut v_early, mut v_late) = self.delayed(state, cmd);
+        let (mut v_early, mut v_late) = if self.has_delay {
+            self.delayed(state, cmd)
+        } else {
+            (cmd, cmd)
+        };
         let mut s0 = state.vec();
         match faults.winding {
             Winding::Normal => {}
@@ -346,7 +353,7 @@ impl Plant {
         } else {
             self.context(faults, &s0)
         };
-        let mut s1 = self.advance_step(&c, &s0, v_early, v_late);
+        let (mut s1, gear) = self.advance_step(&c, &s0, v_early, v_late);
         if faults.winding == Winding::Open {
             s1[I] = 0.0;
         }
@@ -361,13 +368,21 @@ impl Plant {
             }
         }
         state.set(&s1);
-        let v_mean = v_early * self.delay_frac + v_late * (1.0 - self.delay_frac);
-        let c_end = if nominal {
-            c
+        // Without a delay both parts are the command, and this mean is exactly it.
+        let v_mean = if self.has_delay {
+            v_early * self.delay_frac + v_late * (1.0 - self.delay_frac)
         } else {
-            self.context(faults, &s1)
+            v_late
         };
-        let mut out = self.outputs_in(&c_end, state);
+        // Faults may move the state after the step (a jam) or change the contact: derive
+        // the gear again there; nominally it is the mode's at the end of the step.
+        let (c_end, gear) = if nominal {
+            (c, gear)
+        } else {
+            let c_end = self.context(faults, &s1);
+            (c_end, self.gear_of(&c_end, s1[X]))
+        };
+        let mut out = self.outputs_gear(&c_end, state, gear);
         out.applied_voltage_v = v_late;
         out.mean_current_a = if faults.winding == Winding::Open {
             0.0
@@ -430,8 +445,13 @@ impl Plant {
 
     #[inline(always)]
     fn outputs_in(&self, c: &Ctx, state: &PlantState) -> Outputs {
+        self.outputs_gear(c, state, self.gear_of(c, state.twist_rad))
+    }
+
+    /// Outputs of `state` whose gear contact (`gear_of`) is `gear`.
+    #[inline(always)]
+    fn outputs_gear(&self, c: &Ctx, state: &PlantState, gear: i8) -> Outputs {
         let s = state.vec();
-        let gear = self.gear_of(c, s[X]);
         let applied = state
             .history
             .get(state.head as usize)
@@ -476,14 +496,15 @@ impl Plant {
 
     #[inline(always)]
     fn saturate(&self, v: f32) -> f32 {
-        if v > self.v_max {
-            self.v_max
-        } else if v < -self.v_max {
-            -self.v_max
-        } else if v.is_nan() {
-            0.0
-        } else {
+        if abs(v) <= self.v_max {
             v
+        } else if v > 0.0 {
+            self.v_max
+        } else if v < 0.0 {
+            -self.v_max
+        } else {
+            // NaN
+            0.0
         }
     }
 
@@ -491,9 +512,6 @@ impl Plant {
     /// `delay_frac`) and the late part of this step.
     #[inline(always)]
     fn delayed(&self, state: &mut PlantState, cmd: f32) -> (f32, f32) {
-        if self.delay_steps == 0 && self.delay_frac == 0.0 {
-            return (cmd, cmd);
-        }
         let head = (state.head as usize + 1) % HISTORY;
         state.head = head as u8;
         if let Some(slot) = state.history.get_mut(head) {

@@ -342,7 +342,8 @@ impl Plant {
     }
 
     /// One held-voltage step: `v_early` over the first `delay_frac` of it, `v_late` after.
-    pub(super) fn advance_step(&self, c: &Ctx, s0: &Vec5, v_early: f32, v_late: f32) -> Vec5 {
+    /// Returns the state at its end and its gear contact (`gear_of` of its twist).
+    pub(super) fn advance_step(&self, c: &Ctx, s0: &Vec5, v_early: f32, v_late: f32) -> (Vec5, i8) {
         let m = self.mode_at(c, s0);
         let f = self.forcing(c, &m);
         let split = self.delay_frac > 0.0;
@@ -357,7 +358,7 @@ impl Plant {
             Self::advance(&self.full, &m, f, s0, &Input::held(v_late))
         };
         if !self.always_sub && self.consistent(c, &m, s0, &s1) {
-            return s1;
+            return (s1, m.gear);
         }
         let (mut s, mut m, mut f) = (*s0, m, f);
         let n_sub = self.sub_steps as usize;
@@ -386,7 +387,9 @@ impl Plant {
                 f = self.forcing(c, &m);
             }
         }
-        s
+        // After an event in the last sub-step `m` was derived at `s`; without one it still
+        // holds there: either way its gear is `s`'s.
+        (s, m.gear)
     }
 
     /// One step under the sinusoidal voltage `a_cos cos ωτ + a_sin sin ωτ`, τ from the
