@@ -360,7 +360,26 @@ impl Plant {
         if !self.always_sub && self.consistent(c, &m, s0, &s1) {
             return (s1, m.gear);
         }
-        let (mut s, mut m, mut f) = (*s0, m, f);
+        self.sub_stepped(*c, m, f, *s0, v_early, v_late)
+    }
+
+    /// [`Plant::advance_step`] redone as sub-steps, from `s0` in its mode `m` with forcing
+    /// `f`. Out of line (and its arguments by value): the step that needs no sub-steps then
+    /// keeps its registers for itself (measured on the Cortex-M4F: fewer spills on every
+    /// step).
+    #[inline(never)]
+    fn sub_stepped(
+        &self,
+        c: Ctx,
+        m: Mode,
+        f: (f32, f32),
+        s0: Vec5,
+        v_early: f32,
+        v_late: f32,
+    ) -> (Vec5, i8) {
+        let c = &c;
+        let split = self.delay_frac > 0.0;
+        let (mut s, mut m, mut f) = (s0, m, f);
         let n_sub = self.sub_steps as usize;
         for j in 0..n_sub {
             // Voltage over this sub-step: the time-weighted mean where the delay's split
