@@ -26,7 +26,8 @@ pub(super) struct Ctx {
     /// The load is held (jammed).
     pub(super) jammed: bool,
     /// External torques present (false lets the nominal step skip adding zeros, which
-    /// IEEE arithmetic cannot fold: −0 + 0 = +0).
+    /// IEEE arithmetic cannot fold: −0 + 0 = +0). Set in every context built under a
+    /// fault, so false means exactly the nominal context.
     pub(super) ext: bool,
 }
 
@@ -360,7 +361,11 @@ impl Plant {
         if !self.always_sub && self.consistent(c, &m, s0, &s1) {
             return (s1, m.gear);
         }
-        self.sub_stepped(*c, m, f, *s0, v_early, v_late)
+        // The nominal context (no external torque) is rebuilt there rather than passed, and
+        // the state goes in registers: nothing is stored for a call that rarely happens.
+        let faulty = if c.ext { Some(c) } else { None };
+        let [i, wm, wl, x, th] = *s0;
+        self.sub_stepped(faulty, m, f, [i, wm, wl, x, th], v_early, v_late)
     }
 
     /// [`Plant::advance_step`] redone as sub-steps, from `s0` in its mode `m` with forcing
@@ -370,14 +375,18 @@ impl Plant {
     #[inline(never)]
     fn sub_stepped(
         &self,
-        c: Ctx,
+        faulty: Option<&Ctx>,
         m: Mode,
         f: (f32, f32),
-        s0: Vec5,
+        [i, wm, wl, x, th]: Vec5,
         v_early: f32,
         v_late: f32,
     ) -> (Vec5, i8) {
-        let c = &c;
+        let c = &match faulty {
+            Some(c) => *c,
+            None => self.nominal(),
+        };
+        let s0 = [i, wm, wl, x, th];
         let split = self.delay_frac > 0.0;
         let (mut s, mut m, mut f) = (s0, m, f);
         let n_sub = self.sub_steps as usize;
