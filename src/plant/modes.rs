@@ -50,6 +50,8 @@ pub(super) struct Mode {
     pub(super) gear: i8,
     pub(super) motor: Motion,
     pub(super) load: Motion,
+    /// [`Mode::index`], 6 when both bodies are stuck: derived once per mode, not per use.
+    idx: u8,
 }
 
 /// Exact transition of one mode over one (sub-)step: `s' = Φ s + Γ [V, τ_m, τ_L]`, with
@@ -220,15 +222,30 @@ impl ModeSet {
 }
 
 impl Mode {
+    #[inline(always)]
+    pub(super) fn new(gear: i8, motor: Motion, load: Motion) -> Mode {
+        let c = if gear != 0 { 3 } else { 0 };
+        let idx = match (motor, load) {
+            (Motion::Slip(_), Motion::Slip(_)) => c,
+            (Motion::Stuck, Motion::Slip(_)) => c + 1,
+            (Motion::Slip(_), Motion::Stuck) => c + 2,
+            (Motion::Stuck, Motion::Stuck) => 6,
+        };
+        Mode {
+            gear,
+            motor,
+            load,
+            idx,
+        }
+    }
+
     /// Index into the six modes with dynamics; `None` when both bodies are stuck.
     #[inline(always)]
     pub(super) fn index(&self) -> Option<usize> {
-        let c = if self.gear != 0 { 3 } else { 0 };
-        match (self.motor, self.load) {
-            (Motion::Slip(_), Motion::Slip(_)) => Some(c),
-            (Motion::Stuck, Motion::Slip(_)) => Some(c + 1),
-            (Motion::Slip(_), Motion::Stuck) => Some(c + 2),
-            (Motion::Stuck, Motion::Stuck) => None,
+        if self.idx < 6 {
+            Some(self.idx as usize)
+        } else {
+            None
         }
     }
 }

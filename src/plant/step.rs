@@ -175,7 +175,7 @@ impl Plant {
         } else {
             Self::motion(0.0, self.load_drive(c, s), c.tf_l)
         };
-        Mode { gear, motor, load }
+        Mode::new(gear, motor, load)
     }
 
     /// Constant torques of the mode: friction, the dead-zone offset ±k δ and external torques.
