@@ -38,13 +38,35 @@ impl Plant {
         if self.gear_of(c, s1[X]) == m.gear && !motor_event && !load_event {
             return (s1, false);
         }
-        (self.correct(c, m, s0, s1, inp.v_eff), true)
+        let ([i0, wm0, wl0, x0, th0], [i1, wm1, wl1, x1, th1]) = (*s0, s1);
+        let s0 = (i0, wm0, wl0, x0, th0);
+        (
+            self.correct(c, m, s0, i1, wm1, wl1, x1, th1, inp.v_eff),
+            true,
+        )
     }
 
     /// The corrections of a sub-step from `s0` in mode `m` that ended at `s1` (the mode's
     /// exact advance) with an event in it; `v` is the voltage of the closed forms.
+    ///
+    /// Out of line, as it is rarely needed; the states go as scalars (in registers), so the
+    /// sub-step loop stores nothing for it.
     #[inline(never)]
-    fn correct(&self, c: &Ctx, m: &Mode, s0: &Vec5, mut s1: Vec5, v: f32) -> Vec5 {
+    #[allow(clippy::too_many_arguments)]
+    fn correct(
+        &self,
+        c: &Ctx,
+        m: &Mode,
+        (i0, wm0, wl0, x0, th0): (f32, f32, f32, f32, f32),
+        i1: f32,
+        wm1: f32,
+        wl1: f32,
+        x1: f32,
+        th1: f32,
+        v: f32,
+    ) -> Vec5 {
+        let s0 = &[i0, wm0, wl0, x0, th0];
+        let mut s1 = [i1, wm1, wl1, x1, th1];
         let hs = self.sub.tau;
         let motor_free = !matches!(m.motor, Motion::Stuck);
         let load_free = !matches!(m.load, Motion::Stuck);
