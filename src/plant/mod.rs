@@ -177,6 +177,8 @@ impl Outputs {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Plant {
     full: ModeSet,
+    /// The modes over half a step (see `halves`).
+    half: ModeSet,
     sub: ModeSet,
     /// Γ column of the voltage over the late part (1 − f) h of a step split by a fractional
     /// input delay, per mode; all zero when the delay is a whole number of steps.
@@ -205,6 +207,9 @@ pub struct Plant {
     sub_steps: u16,
     /// Every step is sub-stepped (the sample period is long against the mechanical periods).
     always_sub: bool,
+    /// A step that needs sub-steps first tries each half whole (an even number of
+    /// sub-steps, and the whole-step check applies).
+    halves: bool,
     delay_steps: u8,
     /// There is an input delay (`delay_steps` or `delay_frac` non-zero).
     has_delay: bool,
@@ -221,6 +226,7 @@ impl Plant {
         let full = mode_set(params, d.n_total, d.k_eq_nm_per_rad, h)?;
         let (sub_steps, always_sub) = sub_step_plan(params, d.n_total, d.k_eq_nm_per_rad);
         let sub = mode_set(params, d.n_total, d.k_eq_nm_per_rad, h / sub_steps as f64)?;
+        let half = mode_set(params, d.n_total, d.k_eq_nm_per_rad, 0.5 * h)?;
 
         let delay = params.effects.input_delay / h;
         // Whole steps, and the fraction of a step the older command still covers. A delay
@@ -249,6 +255,7 @@ impl Plant {
         };
         Ok(Plant {
             full,
+            half,
             sub,
             late_v,
             h: h as f32,
@@ -275,6 +282,7 @@ impl Plant {
             tau_e: to_f32(m.inductance_h / m.resistance_ohm, "motor.inductance_h")?,
             sub_steps: sub_steps as u16,
             always_sub,
+            halves: !always_sub && sub_steps % 2 == 0,
             delay_steps: whole as u8,
             has_delay: whole > 0.0 || frac > 0.0,
             delay_frac: frac as f32,

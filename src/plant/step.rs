@@ -390,7 +390,32 @@ impl Plant {
         let split = self.delay_frac > 0.0;
         let (mut s, mut m, mut f) = (s0, m, f);
         let n_sub = self.sub_steps as usize;
-        for j in 0..n_sub {
+        // Each half of the step is first tried whole in its starting mode, with the same
+        // check as the whole step (exact within the mode; the check is only safer over half
+        // the time): the event then costs the sub-steps of one half, not of both.
+        let halves = self.halves && !split;
+        let mid = n_sub / 2;
+        let mut j = 0;
+        let mut second_tried = false;
+        if halves {
+            let s_h = Self::advance(&self.half, &m, f, &s, &Input::held(v_late));
+            if self.consistent_over(c, &m, &s, &s_h, self.half.tau) {
+                // The event is in the second half: sub-step that.
+                (s, j, second_tried) = (s_h, mid, true);
+            }
+        }
+        while j < n_sub {
+            if halves && j == mid && !second_tried {
+                second_tried = true;
+                // Opaque to the optimiser, like the sub-step transitions (no hoisting).
+                let set = core::hint::black_box(&self.half);
+                let s_h = Self::advance(set, &m, f, &s, &Input::held(v_late));
+                if self.consistent_over(c, &m, &s, &s_h, set.tau) {
+                    // No event in the second half: `m` holds at its end.
+                    s = s_h;
+                    break;
+                }
+            }
             // Voltage over this sub-step: the time-weighted mean where the delay's split
             // point falls inside it.
             let v = if split {
@@ -414,6 +439,7 @@ impl Plant {
                 m = self.mode_at(c, &s);
                 f = self.forcing(c, &m);
             }
+            j += 1;
         }
         // After an event in the last sub-step `m` was derived at `s`; without one it still
         // holds there: either way its gear is `s`'s.
@@ -467,7 +493,20 @@ impl Plant {
     /// Does the whole-step result agree with the mode it was computed in?
     #[inline(always)]
     pub(super) fn consistent(&self, c: &Ctx, m: &Mode, s0: &Vec5, s1: &Vec5) -> bool {
-        if self.gear_of(c, s1[X]) != m.gear || self.grazes(c, m.gear, s0, s1) {
+        self.consistent_over(c, m, s0, s1, self.h)
+    }
+
+    /// [`Plant::consistent`] for an advance over `tau` (s).
+    #[inline(always)]
+    pub(super) fn consistent_over(
+        &self,
+        c: &Ctx,
+        m: &Mode,
+        s0: &Vec5,
+        s1: &Vec5,
+        tau: f32,
+    ) -> bool {
+        if self.gear_of(c, s1[X]) != m.gear || self.grazes(c, m.gear, s0, s1, tau) {
             return false;
         }
         let motor_ok = match m.motor {
@@ -482,11 +521,12 @@ impl Plant {
     }
 
     /// Whether the twist may have crossed a gap edge and come back within the step: the
-    /// cubic Hermite interpolant of x (ends and slopes) is checked at its turning point.
+    /// cubic Hermite interpolant of x (ends and slopes, over the advance's length `tau`, s)
+    /// is checked at its turning point.
     #[inline(always)]
-    pub(super) fn grazes(&self, c: &Ctx, gear: i8, s0: &Vec5, s1: &Vec5) -> bool {
-        let m0 = (s0[WM] * self.inv_n - s0[WL]) * self.h;
-        let m1 = (s1[WM] * self.inv_n - s1[WL]) * self.h;
+    pub(super) fn grazes(&self, c: &Ctx, gear: i8, s0: &Vec5, s1: &Vec5, tau: f32) -> bool {
+        let m0 = (s0[WM] * self.inv_n - s0[WL]) * tau;
+        let m1 = (s1[WM] * self.inv_n - s1[WL]) * tau;
         let turning = (m0 > 0.0 && m1 < 0.0) || (m0 < 0.0 && m1 > 0.0);
         if !turning {
             return false;
