@@ -23,13 +23,19 @@
 //! A step is first taken whole in the mode at its start. If the end state contradicts that
 //! mode (the twist crossed ±δ, or its Hermite interpolant grazed it; a sliding body reversed;
 //! a stuck body's torque exceeds static friction), the step is redone as exact
-//! sub-steps. Within the sub-step where an event falls, its instant is located by
-//! interpolation and the part of the sub-step after it is corrected by the impulse the
-//! mode change implies: the dead-zone torque is continuous at the gap edge, so the contact
-//! impulse grows as `k v τ²/2` (corrected to third order); friction reverses (`2 T_f τ`) or
-//! sticks (velocity set exactly to zero); a motor breaking away from rest follows the
+//! sub-steps (each half of the step is first tried whole under the same check, so only the
+//! half holding the event is sub-stepped). Within the sub-step where an event falls, its
+//! instant is located by interpolation and the part of the sub-step after it is corrected
+//! by the impulse the mode change implies: the dead-zone torque is continuous at the gap
+//! edge, so the contact impulse grows as `k v τ²/2` (corrected to third order); friction
+//! reverses (`2 T_f τ`) or sticks (velocity set exactly to zero); a motor breaking away from rest follows the
 //! exponential current rise, located in closed form. Stuck bodies keep a velocity of exactly
 //! zero (Karnopp-style), so there is no chatter and no dependence on a velocity threshold.
+//!
+//! Each mode keeps only the entries of its transition that its structure lets be non-zero
+//! (a stuck body's speed row and column, the decoupled motor and load sides in the gap):
+//! they are exactly zero in the full matrices, so the shorter products give the same values
+//! (`modes::ModeSet`).
 //!
 //! Accuracy against an independent fine RK4 integration and against the analytic transfer
 //! function is proved in `host-tests/tests/plant_accuracy.rs`.
