@@ -28,9 +28,10 @@
 //! instant is located by interpolation and the part of the sub-step after it is corrected
 //! by the impulse the mode change implies: the dead-zone torque is continuous at the gap
 //! edge, so the contact impulse grows as `k v τ²/2` (corrected to third order); friction
-//! reverses (`2 T_f τ`) or sticks (velocity set exactly to zero); a motor breaking away from rest follows the
-//! exponential current rise, located in closed form. Stuck bodies keep a velocity of exactly
-//! zero (Karnopp-style), so there is no chatter and no dependence on a velocity threshold.
+//! reverses (`2 T_f τ`) or sticks (velocity set exactly to zero); a motor breaking away
+//! from rest follows the exponential current rise, located in closed form. Stuck bodies keep
+//! a velocity of exactly zero (Karnopp-style), so there is no chatter and no dependence on a
+//! velocity threshold.
 //!
 //! Each mode keeps only the entries of its transition that its structure lets be non-zero
 //! (a stuck body's speed row and column, the decoupled motor and load sides in the gap):
