@@ -396,24 +396,22 @@ impl Plant {
         let halves = self.halves && !split;
         let mid = n_sub / 2;
         let mut j = 0;
-        let mut second_tried = false;
-        if halves {
-            let s_h = Self::advance(&self.half, &m, f, &s, &Input::held(v_late));
-            if self.consistent_over(c, &m, &s, &s_h, self.half.tau) {
-                // The event is in the second half: sub-step that.
-                (s, j, second_tried) = (s_h, mid, true);
-            }
-        }
+        // Whether the half starting at `mid` is known to hold the event (no try there).
+        let mut second_known = false;
         while j < n_sub {
-            if halves && j == mid && !second_tried {
-                second_tried = true;
+            if halves && (j == 0 || (j == mid && !second_known)) {
                 // Opaque to the optimiser, like the sub-step transitions (no hoisting).
                 let set = core::hint::black_box(&self.half);
                 let s_h = Self::advance(set, &m, f, &s, &Input::held(v_late));
                 if self.consistent_over(c, &m, &s, &s_h, set.tau) {
-                    // No event in the second half: `m` holds at its end.
+                    // No event in this half: `m` holds at its end.
                     s = s_h;
-                    break;
+                    if j == mid {
+                        break;
+                    }
+                    // The event is in the second half: sub-step that.
+                    (j, second_known) = (mid, true);
+                    continue;
                 }
             }
             // Voltage over this sub-step: the time-weighted mean where the delay's split
