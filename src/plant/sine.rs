@@ -6,7 +6,7 @@ use crate::error::ParamError;
 use crate::params::ActuatorParams;
 
 /// Exact response of every mode to a continuous sinusoidal voltage at one frequency, for
-/// [`Plant::step_sine`].
+/// [`Plant::step_sine`](crate::Plant::step_sine).
 ///
 /// A stepped-sine frequency response driven through the zero-order hold measures the
 /// sampled, held system: its notch sits about 1 Hz above the closed-form anti-resonance of
