@@ -50,6 +50,8 @@ pub(super) struct Mode {
     pub(super) gear: i8,
     pub(super) motor: Motion,
     pub(super) load: Motion,
+    /// [`Mode::index`], 6 when both bodies are stuck: derived once per mode, not per use.
+    idx: u8,
 }
 
 /// Exact transition of one mode over one (sub-)step: `s' = Φ s + Γ [V, τ_m, τ_L]`, with
@@ -68,27 +70,182 @@ pub(super) const NO_TRANSITION: Transition = Transition {
 /// Column of the held voltage in a [`Transition`].
 pub(super) const COL_V: usize = 5;
 
-/// The six modes with dynamics, indexed `contact·3 + {both slide, motor stuck, load stuck}`;
-/// with both bodies stuck only the current moves, which is done in closed form.
+/// Column of a [`Transition`] (and slot of the product's input vector): the five states,
+/// then the held voltage and the constant torques on the motor and on the load.
+const C_I: usize = 0;
+const C_WM: usize = 1;
+const C_WL: usize = 2;
+const C_X: usize = 3;
+const C_TH: usize = 4;
+const C_V: usize = COL_V;
+const C_TM: usize = 6;
+const C_TL: usize = 7;
+
+/// Both bodies sliding, gears apart. The motor side (i, ωm) and the load side (ωL, θL) are
+/// decoupled, and nothing depends on the twist x (its own coefficient is exactly 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct FreeGap {
+    /// Rows i and ωm over [i, ωm, V, τm].
+    pub(super) motor: [[f32; 4]; 2],
+    /// Rows ωL and θL over [ωL, θL, τL].
+    pub(super) load: [[f32; 3]; 2],
+    /// Row x over [i, ωm, ωL, θL, V, τm, τL].
+    pub(super) x: [f32; 7],
+}
+
+/// Motor stuck, gears apart: the current decays alone (no back-EMF), the load moves on its
+/// own, the twist follows the load.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct MotorStuckGap {
+    /// Row i over [i, V].
+    pub(super) i: [f32; 2],
+    /// Rows ωL, θL and x over [ωL, θL, τL] (x's own coefficient is exactly 1).
+    pub(super) load: [[f32; 3]; 3],
+}
+
+/// Motor stuck, gears in contact: the current decays alone, the load side (ωL, x, θL) moves
+/// against the gear spring.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct MotorStuckContact {
+    /// Row i over [i, V].
+    pub(super) i: [f32; 2],
+    /// Rows ωL, x and θL over [ωL, x, θL, τL].
+    pub(super) load: [[f32; 4]; 3],
+}
+
+/// Load stuck, gears apart: θL is held, nothing depends on x (its own coefficient is 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct LoadStuckGap {
+    /// Rows i, ωm and x over [i, ωm, V, τm].
+    pub(super) rows: [[f32; 4]; 3],
+}
+
+/// Load stuck, gears in contact: θL is held, the motor side (i, ωm, x) moves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct LoadStuckContact {
+    /// Rows i, ωm and x over [i, ωm, x, V, τm].
+    pub(super) rows: [[f32; 5]; 3],
+}
+
+/// The six modes with dynamics over one (sub-)step, indexed (see [`Mode::index`])
+/// `contact·3 + {both slide, motor stuck, load stuck}`; with both bodies stuck only the
+/// current moves, which is done in closed form.
+///
+/// Only the entries a mode's structure lets be non-zero are kept: a stuck body's speed row
+/// and column and its torque column vanish, and apart from the gears the motor and the
+/// load sides are decoupled. The exponential and its integral are computed from sums of
+/// products in which those entries are sums of exact zeros, so they are exactly 0 (and the
+/// kept diagonal ones exactly 1) in the full matrices too; `modes::tests` checks it. A
+/// product over the kept entries therefore equals the full product (up to the sign of a
+/// zero result), and costs a third less storage.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct ModeSet {
-    pub(super) modes: [Transition; 6],
+    pub(super) free_gap: FreeGap,
+    pub(super) motor_stuck_gap: MotorStuckGap,
+    pub(super) load_stuck_gap: LoadStuckGap,
+    /// Both sliding in contact: everything couples, the full transition.
+    pub(super) free_contact: Transition,
+    pub(super) motor_stuck_contact: MotorStuckContact,
+    pub(super) load_stuck_contact: LoadStuckContact,
     /// e^{−R τ / L} over this set's step τ, for the both-stuck case.
     pub(super) decay: f32,
     /// Step length τ, s.
     pub(super) tau: f32,
 }
 
+/// Entry (row, col) of a full transition.
+fn at(t: &Transition, row: usize, col: usize) -> f32 {
+    t.cols
+        .get(col)
+        .and_then(|c| c.get(row))
+        .copied()
+        .unwrap_or(0.0)
+}
+
+/// Entries of `row` at `cols`.
+fn pick<const K: usize>(t: &Transition, row: usize, cols: [usize; K]) -> [f32; K] {
+    cols.map(|c| at(t, row, c))
+}
+
+impl ModeSet {
+    /// Keeps the structurally non-zero entries of the six full transitions (in the order of
+    /// [`MODE_FLAGS`]).
+    fn compact(t: &[Transition; 6], decay: f32, tau: f32) -> ModeSet {
+        let [fg, msg, lsg, fc, msc, lsc] = t;
+        ModeSet {
+            free_gap: FreeGap {
+                motor: [
+                    pick(fg, I, [C_I, C_WM, C_V, C_TM]),
+                    pick(fg, WM, [C_I, C_WM, C_V, C_TM]),
+                ],
+                load: [
+                    pick(fg, WL, [C_WL, C_TH, C_TL]),
+                    pick(fg, TH, [C_WL, C_TH, C_TL]),
+                ],
+                x: pick(fg, X, [C_I, C_WM, C_WL, C_TH, C_V, C_TM, C_TL]),
+            },
+            motor_stuck_gap: MotorStuckGap {
+                i: pick(msg, I, [C_I, C_V]),
+                load: [
+                    pick(msg, WL, [C_WL, C_TH, C_TL]),
+                    pick(msg, TH, [C_WL, C_TH, C_TL]),
+                    pick(msg, X, [C_WL, C_TH, C_TL]),
+                ],
+            },
+            load_stuck_gap: LoadStuckGap {
+                rows: [
+                    pick(lsg, I, [C_I, C_WM, C_V, C_TM]),
+                    pick(lsg, WM, [C_I, C_WM, C_V, C_TM]),
+                    pick(lsg, X, [C_I, C_WM, C_V, C_TM]),
+                ],
+            },
+            free_contact: *fc,
+            motor_stuck_contact: MotorStuckContact {
+                i: pick(msc, I, [C_I, C_V]),
+                load: [
+                    pick(msc, WL, [C_WL, C_X, C_TH, C_TL]),
+                    pick(msc, X, [C_WL, C_X, C_TH, C_TL]),
+                    pick(msc, TH, [C_WL, C_X, C_TH, C_TL]),
+                ],
+            },
+            load_stuck_contact: LoadStuckContact {
+                rows: [
+                    pick(lsc, I, [C_I, C_WM, C_X, C_V, C_TM]),
+                    pick(lsc, WM, [C_I, C_WM, C_X, C_V, C_TM]),
+                    pick(lsc, X, [C_I, C_WM, C_X, C_V, C_TM]),
+                ],
+            },
+            decay,
+            tau,
+        }
+    }
+}
+
 impl Mode {
+    #[inline(always)]
+    pub(super) fn new(gear: i8, motor: Motion, load: Motion) -> Mode {
+        let c = if gear != 0 { 3 } else { 0 };
+        let idx = match (motor, load) {
+            (Motion::Slip(_), Motion::Slip(_)) => c,
+            (Motion::Stuck, Motion::Slip(_)) => c + 1,
+            (Motion::Slip(_), Motion::Stuck) => c + 2,
+            (Motion::Stuck, Motion::Stuck) => 6,
+        };
+        Mode {
+            gear,
+            motor,
+            load,
+            idx,
+        }
+    }
+
     /// Index into the six modes with dynamics; `None` when both bodies are stuck.
     #[inline(always)]
     pub(super) fn index(&self) -> Option<usize> {
-        let c = if self.gear != 0 { 3 } else { 0 };
-        match (self.motor, self.load) {
-            (Motion::Slip(_), Motion::Slip(_)) => Some(c),
-            (Motion::Stuck, Motion::Slip(_)) => Some(c + 1),
-            (Motion::Slip(_), Motion::Stuck) => Some(c + 2),
-            (Motion::Stuck, Motion::Stuck) => None,
+        if self.idx < 6 {
+            Some(self.idx as usize)
+        } else {
+            None
         }
     }
 }
@@ -239,9 +396,111 @@ pub(super) fn mode_set(
         *slot = transition(&a, &b, tau)?;
     }
     let decay = libm::exp(-p.motor.resistance_ohm / p.motor.inductance_h * tau);
-    Ok(ModeSet {
-        modes,
-        decay: decay as f32,
-        tau: tau as f32,
-    })
+    Ok(ModeSet::compact(&modes, decay as f32, tau as f32))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::REFERENCE;
+
+    /// The full transition a compact mode stands for: kept entries, unit diagonal entries
+    /// the product takes as 1, zeros elsewhere. `None` for a stuck body's speed row (the
+    /// step sets it to exactly zero).
+    fn expand(set: &ModeSet, idx: usize) -> [[Option<f32>; 8]; 5] {
+        let mut m = [[Some(0.0f32); 8]; 5];
+        let mut put = |row: usize, cols: &[usize], vals: &[f32]| {
+            for (&c, &v) in cols.iter().zip(vals) {
+                m[row][c] = Some(v);
+            }
+        };
+        match idx {
+            0 => {
+                let t = &set.free_gap;
+                put(I, &[C_I, C_WM, C_V, C_TM], &t.motor[0]);
+                put(WM, &[C_I, C_WM, C_V, C_TM], &t.motor[1]);
+                put(WL, &[C_WL, C_TH, C_TL], &t.load[0]);
+                put(TH, &[C_WL, C_TH, C_TL], &t.load[1]);
+                put(X, &[C_I, C_WM, C_WL, C_TH, C_V, C_TM, C_TL], &t.x);
+                put(X, &[C_X], &[1.0]);
+            }
+            1 => {
+                let t = &set.motor_stuck_gap;
+                put(I, &[C_I, C_V], &t.i);
+                put(WL, &[C_WL, C_TH, C_TL], &t.load[0]);
+                put(TH, &[C_WL, C_TH, C_TL], &t.load[1]);
+                put(X, &[C_WL, C_TH, C_TL], &t.load[2]);
+                put(X, &[C_X], &[1.0]);
+                m[WM] = [None; 8];
+            }
+            2 => {
+                let t = &set.load_stuck_gap;
+                put(I, &[C_I, C_WM, C_V, C_TM], &t.rows[0]);
+                put(WM, &[C_I, C_WM, C_V, C_TM], &t.rows[1]);
+                put(X, &[C_I, C_WM, C_V, C_TM], &t.rows[2]);
+                put(X, &[C_X], &[1.0]);
+                put(TH, &[C_TH], &[1.0]);
+                m[WL] = [None; 8];
+            }
+            3 => {
+                for (c, col) in set.free_contact.cols.iter().enumerate() {
+                    for (r, v) in col.iter().enumerate() {
+                        m[r][c] = Some(*v);
+                    }
+                }
+            }
+            4 => {
+                let t = &set.motor_stuck_contact;
+                put(I, &[C_I, C_V], &t.i);
+                put(WL, &[C_WL, C_X, C_TH, C_TL], &t.load[0]);
+                put(X, &[C_WL, C_X, C_TH, C_TL], &t.load[1]);
+                put(TH, &[C_WL, C_X, C_TH, C_TL], &t.load[2]);
+                m[WM] = [None; 8];
+            }
+            _ => {
+                let t = &set.load_stuck_contact;
+                put(I, &[C_I, C_WM, C_X, C_V, C_TM], &t.rows[0]);
+                put(WM, &[C_I, C_WM, C_X, C_V, C_TM], &t.rows[1]);
+                put(X, &[C_I, C_WM, C_X, C_V, C_TM], &t.rows[2]);
+                put(TH, &[C_TH], &[1.0]);
+                m[WL] = [None; 8];
+            }
+        }
+        m
+    }
+
+    /// The compact modes drop only entries that are exactly zero in the full f64-derived
+    /// transitions and take as 1 only entries that are exactly 1, for parameter sets with and
+    /// without every effect that adds couplings (viscous friction, mesh damping, hinge
+    /// spring), at the step and at a sub-step: the compact product is the full product.
+    #[test]
+    fn compact_modes_drop_only_exact_zeros_and_ones() {
+        let mut with_effects = REFERENCE.with_backlash_deg(0.3);
+        with_effects.effects.motor_viscous = 2e-6;
+        with_effects.effects.load_viscous = 1e-3;
+        with_effects.effects.mesh_damping = 0.5;
+        with_effects.effects.hinge_stiffness = 3.0;
+        let mut long_step = REFERENCE.with_backlash_deg(0.08);
+        long_step.sample_period_s = 5.6e-3;
+        for p in [REFERENCE.with_backlash_deg(0.08), with_effects, long_step] {
+            let d = p.derived().unwrap();
+            let (n_sub, _) = sub_step_plan(&p, d.n_total, d.k_eq_nm_per_rad);
+            let h = p.sample_period_s;
+            for tau in [h, h / n_sub as f64] {
+                let set = mode_set(&p, d.n_total, d.k_eq_nm_per_rad, tau).unwrap();
+                for (idx, &(contact, mf, lf)) in MODE_FLAGS.iter().enumerate() {
+                    let (a, b) = continuous(&p, d.n_total, d.k_eq_nm_per_rad, contact, mf, lf);
+                    let full = transition(&a, &b, tau).unwrap();
+                    let compact = expand(&set, idx);
+                    for (r, row) in compact.iter().enumerate() {
+                        for (c, want) in row.iter().enumerate() {
+                            if let Some(v) = want {
+                                assert_eq!(at(&full, r, c), *v, "mode {idx} ({r}, {c}) τ {tau}");
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
 }

@@ -1,7 +1,7 @@
 //! The per-step arithmetic: mode of a state, exact advance within a mode, whole-step check.
 
 use super::modes::ModeSet;
-use super::modes::{Extra, Input, Mode, Motion, Vec5, COL_V, MOTOR_STUCK, NO_TRANSITION};
+use super::modes::{Extra, Input, Mode, Motion, Transition, Vec5, MOTOR_STUCK};
 use super::sine::SineDrive;
 use super::{Plant, I, TH, WL, WM, X};
 use crate::faults::{Jam, PlantFaults};
@@ -26,7 +26,8 @@ pub(super) struct Ctx {
     /// The load is held (jammed).
     pub(super) jammed: bool,
     /// External torques present (false lets the nominal step skip adding zeros, which
-    /// IEEE arithmetic cannot fold: −0 + 0 = +0).
+    /// IEEE arithmetic cannot fold: −0 + 0 = +0). Set in every context built under a
+    /// fault, so false means exactly the nominal context.
     pub(super) ext: bool,
 }
 
@@ -174,7 +175,7 @@ impl Plant {
         } else {
             Self::motion(0.0, self.load_drive(c, s), c.tf_l)
         };
-        Mode { gear, motor, load }
+        Mode::new(gear, motor, load)
     }
 
     /// Constant torques of the mode: friction, the dead-zone offset ±k δ and external torques.
@@ -202,13 +203,26 @@ impl Plant {
     }
 
     /// Exact advance within one mode over the set's step with input `inp`.
+    ///
+    /// Each row is the same balanced sum of products as the full product
+    /// `((p0 + p1) + (p2 + p3)) + ((p4 + p5) + (p6 + p7))` over `[i, ωm, ωL, x, θL, V, τm, τL]`
+    /// with the mode's structurally zero products left out and its unit coefficients taken
+    /// as they are (see [`ModeSet`]): the same value as the full product, with short
+    /// dependency chains, exactly odd in (s, v, τ), and the same operations in the same order
+    /// on every target, so the results are bit-identical everywhere.
     #[inline(always)]
-    pub(super) fn advance(&self, c: &Ctx, set: &ModeSet, m: &Mode, s: &Vec5, inp: &Input) -> Vec5 {
+    pub(super) fn advance(
+        set: &ModeSet,
+        m: &Mode,
+        (tm, tl): (f32, f32),
+        s: &Vec5,
+        inp: &Input,
+    ) -> Vec5 {
         let Some(idx) = m.index() else {
             // Both bodies stuck: only the current moves. Its row in a motor-stuck mode is
             // exactly that (no back-EMF), with every voltage column.
-            let t = set.modes.get(MOTOR_STUCK).unwrap_or(&NO_TRANSITION);
-            let mut i = t.cols[I][I] * s[I] + t.cols[COL_V][I] * inp.v;
+            let [pi, pv] = set.motor_stuck_gap.i;
+            let mut i = pi * s[I] + pv * inp.v;
             match inp.extra {
                 Extra::None => {}
                 Extra::Late(cols, dv) => i += cols.get(MOTOR_STUCK).map_or(0.0, |c| c[I]) * dv,
@@ -224,36 +238,56 @@ impl Plant {
             out[WL] = 0.0;
             return out;
         };
-        let t = set.modes.get(idx).unwrap_or(&NO_TRANSITION);
-        let (tm, tl) = self.forcing(c, m);
         let v = inp.v;
-        let c = &t.cols;
-        let u = [s[0], s[1], s[2], s[3], s[4], v, tm, tl];
-        // Balanced sum per row: short dependency chains, the same tree in every row, and
-        // still exactly odd in (s, v, τ). Every row computes the same products and sums in
-        // the same order on every target, so the results are bit-identical everywhere.
-        macro_rules! row {
-            ($r:literal) => {
-                ((c[0][$r] * u[0] + c[1][$r] * u[1]) + (c[2][$r] * u[2] + c[3][$r] * u[3]))
-                    + ((c[4][$r] * u[4] + c[5][$r] * u[5]) + (c[6][$r] * u[6] + c[7][$r] * u[7]))
-            };
-        }
-        // On x86-64 rows 0–3 go as one SSE vector (`wide`); elsewhere (Cortex-M has no
-        // SIMD for f32) plain scalar code is shorter.
-        #[cfg(target_arch = "x86_64")]
-        let q = {
-            let lanes = |j: usize| -> wide::f32x4 {
-                let col = c.get(j).unwrap_or(&[0.0; 5]);
-                let x = u.get(j).copied().unwrap_or(0.0);
-                wide::f32x4::new([col[0], col[1], col[2], col[3]]) * wide::f32x4::splat(x)
-            };
-            (((lanes(0) + lanes(1)) + (lanes(2) + lanes(3)))
-                + ((lanes(4) + lanes(5)) + (lanes(6) + lanes(7))))
-            .to_array()
+        let [si, wm, wl, x, th] = *s;
+        let mut out = match idx {
+            0 => {
+                let t = &set.free_gap;
+                let mot = |r: &[f32; 4]| (r[0] * si + r[1] * wm) + (r[2] * v + r[3] * tm);
+                let load = |r: &[f32; 3]| r[0] * wl + (r[1] * th + r[2] * tl);
+                let [m0, m1] = &t.motor;
+                let [l0, l1] = &t.load;
+                let r = &t.x;
+                let xr = ((r[0] * si + r[1] * wm) + (r[2] * wl + x))
+                    + ((r[3] * th + r[4] * v) + (r[5] * tm + r[6] * tl));
+                [mot(m0), mot(m1), load(l0), xr, load(l1)]
+            }
+            1 => {
+                let t = &set.motor_stuck_gap;
+                let [l0, l1, l2] = &t.load;
+                [
+                    t.i[0] * si + t.i[1] * v,
+                    0.0,
+                    l0[0] * wl + (l0[1] * th + l0[2] * tl),
+                    (l2[0] * wl + x) + (l2[1] * th + l2[2] * tl),
+                    l1[0] * wl + (l1[1] * th + l1[2] * tl),
+                ]
+            }
+            2 => {
+                let [r0, r1, r2] = &set.load_stuck_gap.rows;
+                let mot = |r: &[f32; 4]| (r[0] * si + r[1] * wm) + (r[2] * v + r[3] * tm);
+                [
+                    mot(r0),
+                    mot(r1),
+                    0.0,
+                    ((r2[0] * si + r2[1] * wm) + x) + (r2[2] * v + r2[3] * tm),
+                    th,
+                ]
+            }
+            4 => {
+                let t = &set.motor_stuck_contact;
+                let load = |r: &[f32; 4]| (r[0] * wl + r[1] * x) + (r[2] * th + r[3] * tl);
+                let [l0, l1, l2] = &t.load;
+                [t.i[0] * si + t.i[1] * v, 0.0, load(l0), load(l1), load(l2)]
+            }
+            5 => {
+                let [r0, r1, r2] = &set.load_stuck_contact.rows;
+                let mot =
+                    |r: &[f32; 5]| ((r[0] * si + r[1] * wm) + r[2] * x) + (r[3] * v + r[4] * tm);
+                [mot(r0), mot(r1), 0.0, mot(r2), th]
+            }
+            _ => Self::full_product(&set.free_contact, &[si, wm, wl, x, th, v, tm, tl]),
         };
-        #[cfg(not(target_arch = "x86_64"))]
-        let q = [row!(0), row!(1), row!(2), row!(3)];
-        let mut out = [q[0], q[1], q[2], q[3], row!(4)];
         match inp.extra {
             Extra::None => {}
             Extra::Late(cols, dv) => {
@@ -280,9 +314,40 @@ impl Plant {
         out
     }
 
+    /// The full product `Φ s + Γ u` of a transition with `u = [s, V, τm, τL]`.
+    #[inline(always)]
+    fn full_product(t: &Transition, u: &[f32; 8]) -> Vec5 {
+        let c = &t.cols;
+        macro_rules! row {
+            ($r:literal) => {
+                ((c[0][$r] * u[0] + c[1][$r] * u[1]) + (c[2][$r] * u[2] + c[3][$r] * u[3]))
+                    + ((c[4][$r] * u[4] + c[5][$r] * u[5]) + (c[6][$r] * u[6] + c[7][$r] * u[7]))
+            };
+        }
+        // On x86-64 rows 0–3 go as one SSE vector (`wide`), the same sums in the same order;
+        // elsewhere (Cortex-M has no SIMD for f32) plain scalar code is shorter.
+        #[cfg(target_arch = "x86_64")]
+        let q = {
+            let lanes = |j: usize| -> wide::f32x4 {
+                let col = c.get(j).unwrap_or(&[0.0; 5]);
+                let x = u.get(j).copied().unwrap_or(0.0);
+                wide::f32x4::new([col[0], col[1], col[2], col[3]]) * wide::f32x4::splat(x)
+            };
+            (((lanes(0) + lanes(1)) + (lanes(2) + lanes(3)))
+                + ((lanes(4) + lanes(5)) + (lanes(6) + lanes(7))))
+            .to_array()
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let q = [row!(0), row!(1), row!(2), row!(3)];
+        [q[0], q[1], q[2], q[3], row!(4)]
+    }
+
     /// One held-voltage step: `v_early` over the first `delay_frac` of it, `v_late` after.
-    pub(super) fn advance_step(&self, c: &Ctx, s0: &Vec5, v_early: f32, v_late: f32) -> Vec5 {
+    /// Returns the state at its end and its gear contact (`gear_of` of its twist).
+    #[inline(always)]
+    pub(super) fn advance_step(&self, c: &Ctx, s0: &Vec5, v_early: f32, v_late: f32) -> (Vec5, i8) {
         let m = self.mode_at(c, s0);
+        let f = self.forcing(c, &m);
         let split = self.delay_frac > 0.0;
         let s1 = if split {
             let inp = Input {
@@ -290,16 +355,66 @@ impl Plant {
                 v_eff: v_late,
                 extra: Extra::Late(&self.late_v, v_late - v_early),
             };
-            self.advance(c, &self.full, &m, s0, &inp)
+            Self::advance(&self.full, &m, f, s0, &inp)
         } else {
-            self.advance(c, &self.full, &m, s0, &Input::held(v_late))
+            Self::advance(&self.full, &m, f, s0, &Input::held(v_late))
         };
         if !self.always_sub && self.consistent(c, &m, s0, &s1) {
-            return s1;
+            return (s1, m.gear);
         }
-        let mut s = *s0;
+        // The nominal context (no external torque) is rebuilt there rather than passed, and
+        // the state goes in registers: nothing is stored for a call that rarely happens.
+        let faulty = if c.ext { Some(c) } else { None };
+        let [i, wm, wl, x, th] = *s0;
+        self.sub_stepped(faulty, m, f, [i, wm, wl, x, th], v_early, v_late)
+    }
+
+    /// [`Plant::advance_step`] redone as sub-steps, from `s0` in its mode `m` with forcing
+    /// `f`. Out of line (and its arguments by value): the step that needs no sub-steps then
+    /// keeps its registers for itself (measured on the Cortex-M4F: fewer spills on every
+    /// step).
+    #[inline(never)]
+    fn sub_stepped(
+        &self,
+        faulty: Option<&Ctx>,
+        m: Mode,
+        f: (f32, f32),
+        [i, wm, wl, x, th]: Vec5,
+        v_early: f32,
+        v_late: f32,
+    ) -> (Vec5, i8) {
+        let c = &match faulty {
+            Some(c) => *c,
+            None => self.nominal(),
+        };
+        let s0 = [i, wm, wl, x, th];
+        let split = self.delay_frac > 0.0;
+        let (mut s, mut m, mut f) = (s0, m, f);
         let n_sub = self.sub_steps as usize;
-        for j in 0..n_sub {
+        // Each half of the step is first tried whole in its starting mode, with the same
+        // check as the whole step (exact within the mode; the check is only safer over half
+        // the time): the event then costs the sub-steps of one half, not of both.
+        let halves = self.halves && !split;
+        let mid = n_sub / 2;
+        let mut j = 0;
+        // Whether the half starting at `mid` is known to hold the event (no try there).
+        let mut second_known = false;
+        while j < n_sub {
+            if halves && (j == 0 || (j == mid && !second_known)) {
+                // Opaque to the optimiser, like the sub-step transitions (no hoisting).
+                let set = core::hint::black_box(&self.half);
+                let s_h = Self::advance(set, &m, f, &s, &Input::held(v_late));
+                if self.consistent_over(c, &m, &s, &s_h, set.tau) {
+                    // No event in this half: `m` holds at its end.
+                    s = s_h;
+                    if j == mid {
+                        break;
+                    }
+                    // The event is in the second half: sub-step that.
+                    (j, second_known) = (mid, true);
+                    continue;
+                }
+            }
             // Voltage over this sub-step: the time-weighted mean where the delay's split
             // point falls inside it.
             let v = if split {
@@ -317,9 +432,17 @@ impl Plant {
             } else {
                 v_late
             };
-            s = self.sub_step(c, &s, &Input::held(v));
+            let event;
+            (s, event) = self.sub_step(c, &m, f, &s, &Input::held(v));
+            if event {
+                m = self.mode_at(c, &s);
+                f = self.forcing(c, &m);
+            }
+            j += 1;
         }
-        s
+        // After an event in the last sub-step `m` was derived at `s`; without one it still
+        // holds there: either way its gear is `s`'s.
+        (s, m.gear)
     }
 
     /// One step under the sinusoidal voltage `a_cos cos ωτ + a_sin sin ωτ`, τ from the
@@ -339,11 +462,12 @@ impl Plant {
             v_eff: v_mid,
             extra: Extra::Sine(&d.full, a_cos, a_sin),
         };
-        let s1 = self.advance(c, &self.full, &m, s0, &inp);
+        let f = self.forcing(c, &m);
+        let s1 = Self::advance(&self.full, &m, f, s0, &inp);
         if !self.always_sub && self.consistent(c, &m, s0, &s1) {
             return s1;
         }
-        let mut s = *s0;
+        let (mut s, mut m, mut f) = (*s0, m, f);
         let (mut ac, mut asn) = (a_cos, a_sin);
         let [cr, sr] = d.rot_sub;
         for _ in 0..self.sub_steps {
@@ -353,7 +477,12 @@ impl Plant {
                 v_eff: v_mid,
                 extra: Extra::Sine(&d.sub, ac, asn),
             };
-            s = self.sub_step(c, &s, &inp);
+            let event;
+            (s, event) = self.sub_step(c, &m, f, &s, &inp);
+            if event {
+                m = self.mode_at(c, &s);
+                f = self.forcing(c, &m);
+            }
             // Move the phase origin to the next sub-step's start.
             (ac, asn) = (ac * cr + asn * sr, asn * cr - ac * sr);
         }
@@ -363,7 +492,20 @@ impl Plant {
     /// Does the whole-step result agree with the mode it was computed in?
     #[inline(always)]
     pub(super) fn consistent(&self, c: &Ctx, m: &Mode, s0: &Vec5, s1: &Vec5) -> bool {
-        if self.gear_of(c, s1[X]) != m.gear || self.grazes(c, m.gear, s0, s1) {
+        self.consistent_over(c, m, s0, s1, self.h)
+    }
+
+    /// [`Plant::consistent`] for an advance over `tau` (s).
+    #[inline(always)]
+    pub(super) fn consistent_over(
+        &self,
+        c: &Ctx,
+        m: &Mode,
+        s0: &Vec5,
+        s1: &Vec5,
+        tau: f32,
+    ) -> bool {
+        if self.gear_of(c, s1[X]) != m.gear || self.grazes(c, m.gear, s0, s1, tau) {
             return false;
         }
         let motor_ok = match m.motor {
@@ -378,11 +520,12 @@ impl Plant {
     }
 
     /// Whether the twist may have crossed a gap edge and come back within the step: the
-    /// cubic Hermite interpolant of x (ends and slopes) is checked at its turning point.
+    /// cubic Hermite interpolant of x (ends and slopes, over the advance's length `tau`, s)
+    /// is checked at its turning point.
     #[inline(always)]
-    pub(super) fn grazes(&self, c: &Ctx, gear: i8, s0: &Vec5, s1: &Vec5) -> bool {
-        let m0 = (s0[WM] * self.inv_n - s0[WL]) * self.h;
-        let m1 = (s1[WM] * self.inv_n - s1[WL]) * self.h;
+    pub(super) fn grazes(&self, c: &Ctx, gear: i8, s0: &Vec5, s1: &Vec5, tau: f32) -> bool {
+        let m0 = (s0[WM] * self.inv_n - s0[WL]) * tau;
+        let m1 = (s1[WM] * self.inv_n - s1[WL]) * tau;
         let turning = (m0 > 0.0 && m1 < 0.0) || (m0 < 0.0 && m1 > 0.0);
         if !turning {
             return false;
