@@ -304,7 +304,7 @@ pub fn levenberg_marquardt(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -
     levenberg_marquardt_with(p0, knobs, data, 20)
 }
 
-/// [`levenberg_marquardt`] with MINPACK's `patience` (at most patience·(knobs + 1) residual
+/// [`levenberg_marquardt()`] with MINPACK's `patience` (at most patience·(knobs + 1) residual
 /// evaluations). Tolerances: a relative cost change of 1e-5 is far below the statistical
 /// resolution of the cost (about √(2/n), 0.7 % for 40 000 samples).
 pub fn levenberg_marquardt_with(
