@@ -95,6 +95,9 @@ fn diagnose_is_bit_identical_across_thread_counts() {
     let a = with_threads(1, diag);
     let b = with_threads(2, diag);
     let _ = std::fs::remove_dir_all(&dir);
-    assert!(a.contains("\"added_effects\"") && a.contains("mesh_damping"), "{a}");
+    assert!(
+        a.contains("\"added_effects\"") && a.contains("mesh_damping"),
+        "{a}"
+    );
     assert_eq!(a, b);
 }

@@ -7,10 +7,22 @@ fn main() {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
-            // Help and version go to stdout with status 0; usage errors are bad input (2).
-            let code = if e.use_stderr() { 2 } else { 0 };
-            let _ = e.print();
-            std::process::exit(code);
+            // Help and version go to stdout with status 0. Usage errors are bad input (2),
+            // reported as one line: clap's reason without its usage block.
+            if !e.use_stderr() {
+                let _ = e.print();
+                std::process::exit(0);
+            }
+            let text = e.to_string();
+            let reason: Vec<&str> = text
+                .split("\n\n")
+                .next()
+                .unwrap_or("")
+                .lines()
+                .map(str::trim)
+                .collect();
+            eprintln!("{} (see `geared-servo --help`)", reason.join(" "));
+            std::process::exit(2);
         }
     };
     match run(&cli) {
