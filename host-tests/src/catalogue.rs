@@ -73,7 +73,8 @@ fn params_rows() -> Vec<Row> {
             check(format!("`{path} = {bad}`"), edited);
         }
     }
-    let structural: [(&str, &dyn Fn(&str) -> String); 9] = [
+    type Edit<'a> = &'a dyn Fn(&str) -> String;
+    let structural: [(&str, Edit); 9] = [
         ("a key misspelt (`inductance` for `inductance_h`)", &|t| {
             t.replacen("inductance_h =", "inductance =", 1)
         }),
