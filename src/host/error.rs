@@ -20,12 +20,47 @@ pub struct HostError {
     pub message: String,
 }
 
+/// User text as an error message may quote it: control characters escaped (so the message
+/// stays on one line) and at most 60 characters, with `…` when cut.
+pub fn shown(text: &str) -> String {
+    let mut out = String::new();
+    for (n, c) in text.chars().enumerate() {
+        if n == 60 {
+            out.push('…');
+            break;
+        }
+        if c.is_control() {
+            out.extend(c.escape_debug());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// The message with any control character escaped: every error is one line, whatever text
+/// from the input it quotes.
+fn one_line(message: String) -> String {
+    if !message.chars().any(char::is_control) {
+        return message;
+    }
+    let mut out = String::with_capacity(message.len() + 8);
+    for c in message.chars() {
+        if c.is_control() {
+            out.extend(c.escape_debug());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
 impl HostError {
     /// Bad input (exit status 2).
     pub fn input(message: impl Into<String>) -> HostError {
         HostError {
             kind: ErrorKind::BadInput,
-            message: message.into(),
+            message: one_line(message.into()),
         }
     }
 
@@ -33,7 +68,7 @@ impl HostError {
     pub fn other(message: impl Into<String>) -> HostError {
         HostError {
             kind: ErrorKind::Other,
-            message: message.into(),
+            message: one_line(message.into()),
         }
     }
 

@@ -4,7 +4,7 @@
 //! Row k: the outputs were sampled at `time_s[k]`, then `motor_voltage_v[k]` was applied
 //! until the next row. The first row's outputs are the initial state.
 
-use crate::host::error::HostError;
+use crate::host::error::{shown, HostError};
 use std::path::Path;
 
 /// Output columns a record may carry, in the canonical order.
@@ -112,12 +112,16 @@ pub fn parse(text: &str, name: &str, require_output: bool) -> Result<Record, Hos
     for h in headers.iter() {
         if seen.contains(&h) {
             return Err(HostError::input(format!(
-                "{name}: line {header_line}: column `{h}` appears twice"
+                "{name}: line {header_line}: column `{}` appears twice",
+                shown(h)
             )));
         }
         seen.push(h);
         if h != "time_s" && h != "motor_voltage_v" && !OUTPUT_COLUMNS.contains(&h) {
-            warnings.push(format!("{name}: column `{h}` is not used and was ignored"));
+            warnings.push(format!(
+                "{name}: column `{}` is not used and was ignored",
+                shown(h)
+            ));
         }
     }
     let t_col = col("time_s").ok_or_else(|| {
@@ -173,12 +177,14 @@ pub fn parse(text: &str, name: &str, require_output: bool) -> Result<Record, Hos
             }
             let v: f64 = raw.parse().map_err(|_| {
                 HostError::input(format!(
-                    "{name}: line {line}, column `{cname}`: `{raw}` is not a number"
+                    "{name}: line {line}, column `{cname}`: `{}` is not a number",
+                    shown(raw)
                 ))
             })?;
             if !v.is_finite() {
                 return Err(HostError::input(format!(
-                    "{name}: line {line}, column `{cname}`: `{raw}` is not finite"
+                    "{name}: line {line}, column `{cname}`: `{}` is not finite",
+                    shown(raw)
                 )));
             }
             Ok(v)

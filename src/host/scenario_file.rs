@@ -28,7 +28,7 @@
 //! (`VirtualActuator`); `simulate`, which has neither, refuses them.
 
 use crate::faults::{BrokenTooth, Jam, SensorFault, Winding};
-use crate::host::error::HostError;
+use crate::host::error::{shown, HostError};
 use crate::scenario::{Fault, Scenario, ScenarioError, SensorChannel, TorqueProfile};
 use serde::Deserialize;
 use std::path::Path;
@@ -164,7 +164,8 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
         };
         let Some(kind) = FAULTS.iter().copied().find(|k| *k == kind) else {
             return Err(here(format!(
-                "unknown fault `{kind}` (known: {})",
+                "unknown fault `{}` (known: {})",
+                shown(kind),
                 FAULTS.join(", ")
             )));
         };
@@ -206,7 +207,10 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
                             })
                         }
                         other => {
-                            return Err(here(format!("unknown profile `{other}` (step, gust)")))
+                            return Err(here(format!(
+                                "unknown profile `{}` (step, gust)",
+                                shown(other)
+                            )))
                         }
                     }
                 }
@@ -276,7 +280,12 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
                         "dropout" => match e.level.as_deref().unwrap_or("zero") {
                             "zero" => SensorFault::Dropout(false),
                             "full" => SensorFault::Dropout(true),
-                            other => return Err(here(format!("`level` = `{other}` (zero, full)"))),
+                            other => {
+                                return Err(here(format!(
+                                    "`level` = `{}` (zero, full)",
+                                    shown(other)
+                                )))
+                            }
                         },
                         "noise" => {
                             let p = num(e.peak_counts, "peak_counts")?;
