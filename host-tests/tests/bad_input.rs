@@ -465,14 +465,30 @@ fn quoted_multi_line_field_still_gives_a_one_line_error() {
     let e = record::parse(text, "m.csv", true).unwrap_err();
     assert!(!e.message.contains('\n'), "{}", e.message);
     assert!(e.message.contains("is not a number"), "{}", e.message);
-    let long = format!("time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.001,{},0\n", "x".repeat(10_000));
+    let long = format!(
+        "time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.001,{},0\n",
+        "x".repeat(10_000)
+    );
     let e = record::parse(&long, "m.csv", true).unwrap_err();
-    assert!(e.message.len() < 200, "a 10 kB field is cut: {} bytes", e.message.len());
+    assert!(
+        e.message.len() < 200,
+        "a 10 kB field is cut: {} bytes",
+        e.message.len()
+    );
 }
 
 #[test]
 fn control_characters_in_a_scenario_stay_on_one_line() {
-    let e = geared_servo::host::scenario_file::parse("[[event]]\nat_s = 0.1\napply = \"a\\nb\"\n", "f.toml", 0.0005, 2000)
-        .unwrap_err();
-    assert!(!e.message.contains('\n') && e.message.contains("unknown fault `a\\nb`"), "{}", e.message);
+    let e = geared_servo::host::scenario_file::parse(
+        "[[event]]\nat_s = 0.1\napply = \"a\\nb\"\n",
+        "f.toml",
+        0.0005,
+        2000,
+    )
+    .unwrap_err();
+    assert!(
+        !e.message.contains('\n') && e.message.contains("unknown fault `a\\nb`"),
+        "{}",
+        e.message
+    );
 }
