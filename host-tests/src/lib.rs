@@ -2,5 +2,6 @@
 //! same physics, and tolerance helpers.
 
 pub mod catalogue;
+pub mod records;
 pub mod reference;
 pub mod scenario;

@@ -2,38 +2,9 @@
 //! independent RK4 reference where that reference models it, against exact identities
 //! (shift, scale, clamp) or a finer emulator otherwise.
 
-use geared_servo::{ActuatorParams, Plant, PlantState, REFERENCE};
+use geared_servo::{Plant, PlantState, REFERENCE};
+use geared_servo_host_tests::records::{emulate, sine, square};
 use geared_servo_host_tests::reference::{relative_rms_error, Reference};
-use std::f64::consts::PI;
-
-fn sine(vpk: f64, f: f64, n: usize, h: f64) -> Vec<f64> {
-    (0..n)
-        .map(|k| vpk * (2.0 * PI * f * k as f64 * h).sin())
-        .collect()
-}
-
-fn square(vpk: f64, period_s: f64, n: usize, h: f64) -> Vec<f64> {
-    (0..n)
-        .map(|k| {
-            if (k as f64 * h / period_s).fract() < 0.5 {
-                vpk
-            } else {
-                -vpk
-            }
-        })
-        .collect()
-}
-
-/// Tachometer record in the measured-data convention (row k before command k).
-fn emulate(p: &ActuatorParams, volts: &[f64]) -> Vec<f64> {
-    let plant = Plant::new(p).unwrap();
-    let mut st = PlantState::REST;
-    let mut out = vec![f64::from(plant.outputs(&st).tach_voltage_v)];
-    for &v in volts {
-        out.push(f64::from(plant.step(&mut st, v as f32).tach_voltage_v));
-    }
-    out
-}
 
 #[test]
 fn dissipative_and_spring_effects_agree_with_the_rk4_reference() {

@@ -2,6 +2,7 @@
 //! against an independent fine-step RK4 integration (backlash and friction).
 
 use geared_servo::{ActuatorParams, Plant, PlantState, SineDrive, REFERENCE};
+use geared_servo_host_tests::records::{emulate, sine, square};
 use geared_servo_host_tests::reference::{first_harmonic, relative_rms_error, rms, Reference};
 use std::f64::consts::PI;
 
@@ -226,35 +227,6 @@ fn continuous_sine_with_backlash_converges_to_fine_rk4() {
         assert!(self_gap < 5e-4, "record not converged in the reference");
         assert!(e <= 0.01, "relative RMS error {e}");
     }
-}
-
-fn sine(vpk: f64, f: f64, n: usize, h: f64) -> Vec<f64> {
-    (0..n)
-        .map(|k| vpk * (2.0 * PI * f * k as f64 * h).sin())
-        .collect()
-}
-
-fn square(vpk: f64, period_s: f64, n: usize, h: f64) -> Vec<f64> {
-    (0..n)
-        .map(|k| {
-            let ph = (k as f64 * h / period_s).fract();
-            if ph < 0.5 {
-                vpk
-            } else {
-                -vpk
-            }
-        })
-        .collect()
-}
-
-fn emulate(p: &ActuatorParams, volts: &[f64]) -> Vec<f64> {
-    let plant = Plant::new(p).unwrap();
-    let mut st = PlantState::REST;
-    let mut out = vec![f64::from(plant.outputs(&st).tach_voltage_v)];
-    for &v in volts {
-        out.push(f64::from(plant.step(&mut st, v as f32).tach_voltage_v));
-    }
-    out
 }
 
 /// Reference tachometer record at a 1 µs RK4 step, after checking that the record is not in
