@@ -319,7 +319,7 @@ impl Plant {
     ///
     /// Always inlined: the caller's loop then keeps the state in registers and receives the
     /// outputs without a copy through memory (measured: 408 → 392 instructions per step on
-    /// the Cortex-M4F, 22–28 → 19–20 ns on the host; the rare sub-stepped path stays out of
+    /// the Cortex-M4F, 22–25 → 19–20 ns on the host; the rare sub-stepped path stays out of
     /// line).
     #[inline(always)]
     pub fn step(&self, state: &mut PlantState, voltage_v: f32) -> Outputs {
