@@ -40,6 +40,3 @@ pub use params::{
 };
 pub use plant::{Outputs, Plant, PlantState, SineDrive};
 pub use sensors::{AdcChannel, EncoderConfig, EncoderShaft, Readings, SensorConfig};
-
-#[cfg(feature = "host")]
-pub mod host;

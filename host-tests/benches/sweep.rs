@@ -6,8 +6,8 @@
 #![allow(missing_docs)] // criterion_group! generates undocumented items
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use geared_servo::host::fr::{clear_drive_cache, grid, Bench, SweepOptions};
 use geared_servo::REFERENCE;
+use geared_servo_host::fr::{clear_drive_cache, grid, Bench, SweepOptions};
 use std::hint::black_box;
 
 fn sweep(c: &mut Criterion) {
@@ -23,7 +23,7 @@ fn sweep(c: &mut Criterion) {
                 clear_drive_cache();
                 let bench =
                     Bench::new(&REFERENCE.with_backlash_deg(b), SweepOptions::default()).unwrap();
-                black_box(bench.sweep(black_box(&freqs), None).unwrap())
+                black_box(bench.sweep(black_box(&freqs), &()).unwrap())
             })
         });
     }

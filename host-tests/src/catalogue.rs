@@ -5,8 +5,8 @@
 //! regenerates it).
 
 use clap::Parser;
-use geared_servo::host::cli::{run, Cli};
-use geared_servo::host::{params_file, record, scenario_file};
+use geared_servo_cli::{run, Cli};
+use geared_servo_host::{params_file, record, scenario_file};
 
 /// One rejected input.
 pub struct Row {

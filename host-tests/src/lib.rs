@@ -1,7 +1,9 @@
 //! Shared helpers for the host tests: an independent fine-step reference integrator of the
 //! same physics, and tolerance helpers.
 
+#[cfg(feature = "host")]
 pub mod catalogue;
 pub mod records;
 pub mod reference;
+#[cfg(feature = "host")]
 pub mod scenario;

@@ -1,9 +1,9 @@
 //! Synthetic diagnosis scenarios shared by the `diagnose_*` tests: a "true" actuator perturbed
 //! 10–30 % from the reference file, records made from it with `synth`, and the noise floor.
 
-use geared_servo::host::calibrate::Data;
-use geared_servo::host::synth::{self, Excitation, SynthSpec, Synthetic};
 use geared_servo::{ActuatorParams, REFERENCE};
+use geared_servo_host::calibrate::Data;
+use geared_servo_host::synth::{self, Excitation, SynthSpec, Synthetic};
 
 /// The true actuator: every parameter of the default calibration set off by 15–25 %, in
 /// both directions (the file given to `diagnose` is [`REFERENCE`]). The armature resistance
@@ -15,9 +15,9 @@ pub fn perturbed() -> ActuatorParams {
     p.motor.coulomb_friction_nm *= 1.25;
     p.load.coulomb_friction_nm *= 0.80;
     // Stiffness 18 % lower: scale both stages.
-    let mut q = geared_servo::host::calibrate::with_measured_stiffness(&p).unwrap();
-    let k = geared_servo::host::calibrate::get(&q, "stiffness.k_eq_nm_per_rad");
-    geared_servo::host::calibrate::set(&mut q, "stiffness.k_eq_nm_per_rad", 0.82 * k);
+    let mut q = geared_servo_host::calibrate::with_measured_stiffness(&p).unwrap();
+    let k = geared_servo_host::calibrate::get(&q, "stiffness.k_eq_nm_per_rad");
+    geared_servo_host::calibrate::set(&mut q, "stiffness.k_eq_nm_per_rad", 0.82 * k);
     q
 }
 
@@ -46,7 +46,7 @@ pub fn spec(validation: bool, noise: f64) -> SynthSpec {
 
 /// Turns a synthetic record into fitting data.
 pub fn data(s: &Synthetic) -> Data {
-    let rec = geared_servo::host::record::Record {
+    let rec = geared_servo_host::record::Record {
         metadata: vec![],
         time_s: s.time_s.clone(),
         sample_period_s: 0.0005,

@@ -2,9 +2,9 @@
 //! and command lines.
 
 use clap::Parser;
-use geared_servo::host::cli::{run, Cli};
-use geared_servo::host::{params_file, record, ErrorKind};
 use geared_servo::{ActuatorParams, ParamError, Plant, Stiffness, REFERENCE};
+use geared_servo_cli::{run, Cli};
+use geared_servo_host::{params_file, record, ErrorKind};
 
 type Setter = fn(&mut ActuatorParams, f64);
 
@@ -479,7 +479,7 @@ fn quoted_multi_line_field_still_gives_a_one_line_error() {
 
 #[test]
 fn control_characters_in_a_scenario_stay_on_one_line() {
-    let e = geared_servo::host::scenario_file::parse(
+    let e = geared_servo_host::scenario_file::parse(
         "[[event]]\nat_s = 0.1\napply = \"a\\nb\"\n",
         "f.toml",
         0.0005,

@@ -1,8 +1,8 @@
 //! Calibration starts from what the record says: the notch and peak of its own frequency
 //! response (MODEL.md, "Calibrating against measured data").
 
-use geared_servo::host::calibrate::{self, frf_notch_peak};
 use geared_servo::REFERENCE;
+use geared_servo_host::calibrate::{self, frf_notch_peak};
 use geared_servo_host_tests::scenario::{perturbed, record};
 
 #[test]

@@ -2,7 +2,7 @@
 //! and bad input as exit status 2 with a reason.
 
 use clap::Parser;
-use geared_servo::host::cli::{run, Cli};
+use geared_servo_cli::{run, Cli};
 
 fn cli(args: &[&str]) -> Cli {
     Cli::try_parse_from(std::iter::once("geared-servo").chain(args.iter().copied())).unwrap()

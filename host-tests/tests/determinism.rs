@@ -3,8 +3,8 @@
 //! bit by `target_parity.rs`, `fin_loop.rs` and `frequency_response.rs` against the files CI
 //! diffs the QEMU output with.)
 
-use geared_servo::host::fr::{self, clear_drive_cache, grid, Bench, SweepOptions};
 use geared_servo::REFERENCE;
+use geared_servo_host::fr::{self, clear_drive_cache, grid, Bench, SweepOptions};
 
 /// Runs `f` on a fresh rayon pool of `threads` threads.
 fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
@@ -23,7 +23,7 @@ fn sweep() -> Vec<fr::Point> {
     };
     Bench::new(&REFERENCE.with_backlash_deg(0.08), opts)
         .unwrap()
-        .sweep(&grid(10.0, 300.0, 9.0).unwrap(), None)
+        .sweep(&grid(10.0, 300.0, 9.0).unwrap(), &())
         .unwrap()
 }
 
@@ -56,7 +56,7 @@ fn design_query_is_bit_identical_across_thread_counts() {
 #[test]
 fn diagnose_is_bit_identical_across_thread_counts() {
     use clap::Parser;
-    use geared_servo::host::cli::{run, Cli};
+    use geared_servo_cli::{run, Cli};
     let dir = std::env::temp_dir().join(format!("gs-determinism-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let meas = dir.join("meas.csv");

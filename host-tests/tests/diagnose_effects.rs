@@ -1,9 +1,9 @@
 //! `diagnose` names a hidden effect: for each candidate, data from an actuator perturbed
 //! 15–25 % from the file, with that effect present and not declared, plus tachometer noise.
 
-use geared_servo::host::diagnose::{diagnose, Options};
-use geared_servo::host::synth;
 use geared_servo::REFERENCE;
+use geared_servo_host::diagnose::{diagnose, Options};
+use geared_servo_host::synth;
 use geared_servo_host_tests::scenario::{perturbed, record};
 
 /// True values: each large enough to matter (several times the noise) and physically

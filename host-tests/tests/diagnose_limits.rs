@@ -2,11 +2,11 @@
 //! with a structural mode outside the candidate list. And the command line's bad-input paths.
 
 use clap::Parser;
-use geared_servo::host::cli::{run, Cli};
-use geared_servo::host::diagnose::{diagnose, Options};
-use geared_servo::host::synth;
-use geared_servo::host::ErrorKind;
 use geared_servo::REFERENCE;
+use geared_servo_cli::{run, Cli};
+use geared_servo_host::diagnose::{diagnose, Options};
+use geared_servo_host::synth;
+use geared_servo_host::ErrorKind;
 use geared_servo_host_tests::scenario::{data, perturbed, record, spec, NOISE_V};
 
 #[test]
@@ -106,7 +106,7 @@ fn a_mode_outside_the_candidates_is_reported_unexplained_with_its_band() {
     );
 }
 
-fn cli(args: &[&str]) -> Result<geared_servo::host::cli::Report, geared_servo::host::HostError> {
+fn cli(args: &[&str]) -> Result<geared_servo_cli::Report, geared_servo_host::HostError> {
     let mut v = vec!["geared-servo"];
     v.extend_from_slice(args);
     run(&Cli::try_parse_from(v).unwrap())
@@ -305,7 +305,7 @@ fn synth_then_diagnose_on_the_command_line_writes_the_report_and_a_loadable_file
             < j["validation"]["nrmse_before"].as_f64().unwrap()
     );
     // The calibrated file loads and carries the effect.
-    let p = geared_servo::host::params_file::load(Some(&out.join("calibrated.toml"))).unwrap();
+    let p = geared_servo_host::params_file::load(Some(&out.join("calibrated.toml"))).unwrap();
     assert!(
         (p.effects.mesh_damping - 0.05).abs() < 0.01,
         "{}",

@@ -26,7 +26,7 @@ fn dissipative_and_spring_effects_agree_with_the_rk4_reference() {
     ];
     for (name, value) in cases {
         let mut p = base;
-        geared_servo::host::synth::set_effect(&mut p.effects, name, value).unwrap();
+        geared_servo_host::synth::set_effect(&mut p.effects, name, value).unwrap();
         for (rname, v) in &records {
             let refr = Reference::new(&p, 1e-6).unwrap().run_tach(v);
             let fine = Reference::new(&p, 0.5e-6).unwrap().run_tach(v);

@@ -6,8 +6,8 @@
 //! `fr::locate`, so the whole file simulates a few seconds of CPU.
 
 use geared_servo::describing;
-use geared_servo::host::fr::{self, Bench, LocateOptions, Resonances, SweepOptions};
 use geared_servo::{ActuatorParams, LinearModel, REFERENCE};
+use geared_servo_host::fr::{self, Bench, LocateOptions, Resonances, SweepOptions};
 use std::sync::OnceLock;
 
 #[path = "../../examples/shared/fr_smoke.rs"]
@@ -22,7 +22,7 @@ fn opts(vpk: f64) -> SweepOptions {
 
 fn locate(p: &ActuatorParams, vpk: f64) -> Resonances {
     let bench = Bench::new(p, opts(vpk)).unwrap();
-    fr::locate(&bench, &LocateOptions::default(), None)
+    fr::locate(&bench, &LocateOptions::default(), &())
         .unwrap()
         .0
 }
@@ -54,7 +54,7 @@ fn linear_bode_matches_analytic_transfer_function_away_from_notch() {
     let lm = LinearModel::new(&p).unwrap();
     let pts = Bench::new(&p, opts(10.0))
         .unwrap()
-        .sweep(&fr::grid(10.0, 300.0, 1.0).unwrap(), None)
+        .sweep(&fr::grid(10.0, 300.0, 1.0).unwrap(), &())
         .unwrap();
     assert_eq!(pts.len(), 291);
     let mut compared = 0;
@@ -217,7 +217,7 @@ fn f_ar_falls_with_backlash_faster_at_10_v_than_at_17_9_v() {
                     resonance: false,
                     ..LocateOptions::default()
                 };
-                fr::locate(&bench, &lo, None)
+                fr::locate(&bench, &lo, &())
                     .unwrap()
                     .0
                     .anti_resonance
@@ -271,7 +271,7 @@ fn on_target_analyser_output_matches_expected_file_and_host_sweep() {
     for (line, (b, f)) in expected.lines().zip(fr_smoke::POINTS) {
         let q = Bench::new(&REFERENCE.with_backlash_deg(b), opts(fr_smoke::VPK))
             .unwrap()
-            .sweep(&[f], None)
+            .sweep(&[f], &())
             .unwrap()[0];
         let cols: Vec<&str> = line.split(' ').collect();
         assert_eq!(cols[2], format!("{:.6}", q.tach.gain_db()));
@@ -307,7 +307,7 @@ fn zoh_hold_measures_the_sampled_system_whose_notch_is_about_1_hz_higher() {
         resonance: false,
         ..LocateOptions::default()
     };
-    let f = fr::locate(&bench, &lo, None)
+    let f = fr::locate(&bench, &lo, &())
         .unwrap()
         .0
         .anti_resonance

@@ -1,10 +1,10 @@
 //! Fault scenarios: files, playback, and bad scenarios as clear errors.
 
-use geared_servo::host::cli::simulate_with_scenario;
-use geared_servo::host::scenario_file::{parse, CAPACITY};
-use geared_servo::host::ErrorKind;
 use geared_servo::scenario::{Fault, Scenario, TorqueProfile};
 use geared_servo::{Jam, Plant, PlantFaults, PlantState, REFERENCE};
+use geared_servo_host::scenario_file::{parse, CAPACITY};
+use geared_servo_host::simulate::simulate_with_scenario;
+use geared_servo_host::ErrorKind;
 
 const DT: f64 = 0.0005;
 
@@ -105,8 +105,8 @@ fn a_schedule_fires_each_event_at_its_step() {
 
 #[test]
 fn sensor_faults_parse_per_channel_and_simulate_refuses_them() {
-    use geared_servo::host::scenario_file::has_io_faults;
     use geared_servo::SensorFault;
+    use geared_servo_host::scenario_file::has_io_faults;
     let text = "[[event]]\nat_s = 0.1\napply = \"tach_dropout\"\n[[event]]\nat_s = 0.1\napply = \"pot_lost_lsbs\"\nbits = 4\n\
 [[event]]\nat_s = 0.2\nclear = \"tach_dropout\"\n[[event]]\nat_s = 0.3\napply = \"bus_sag\"\nfactor = 0.7\n";
     let mut sc = parse(text, "f.toml", DT, 2000).unwrap();

@@ -13,11 +13,11 @@
 //! stops when the residual is white or no candidate earns its place; structure left then is
 //! reported as unexplained, with the band and regime that hold its energy.
 
-use crate::host::calibrate::{self, Data, Fit, Knob};
-use crate::host::error::HostError;
-use crate::host::residual::{self, Analysis};
-use crate::host::synth;
-use crate::ActuatorParams;
+use crate::calibrate::{self, Data, Fit, Knob};
+use crate::error::HostError;
+use crate::residual::{self, Analysis};
+use crate::synth;
+use geared_servo::ActuatorParams;
 use rayon::prelude::*;
 
 /// Options of the search.
@@ -444,5 +444,3 @@ pub fn diagnose(
         rejected,
     })
 }
-
-pub use crate::host::diagnose_report::{run, DiagnoseArgs};

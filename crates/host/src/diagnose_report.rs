@@ -1,11 +1,10 @@
 //! The report of `diagnose`: the JSON object of INTERFACES.md, the human summary, and the
 //! command itself (files in, plots and the calibrated parameter file out).
 
-use crate::host::calibrate::{self, Data, Fit, Knob};
-use crate::host::diagnose::{diagnose, Options, Outcome};
-use crate::host::error::HostError;
-use crate::host::{residual, synth};
-use crate::ActuatorParams;
+use crate::calibrate::{self, Data, Fit, Knob};
+use crate::diagnose::Outcome;
+use crate::{residual, synth};
+use geared_servo::ActuatorParams;
 use serde_json::{json, Map, Value};
 
 fn rms_nrmse(cost: f64) -> f64 {
@@ -13,7 +12,7 @@ fn rms_nrmse(cost: f64) -> f64 {
 }
 
 /// Adds `key` to a JSON object (no-op on anything else).
-fn insert(v: &mut Value, key: &str, x: Value) {
+pub fn insert(v: &mut Value, key: &str, x: Value) {
     if let Some(o) = v.as_object_mut() {
         o.insert(key.to_string(), x);
     }
@@ -241,144 +240,4 @@ impl Outcome {
         }
         s
     }
-}
-
-/// Arguments of `geared-servo diagnose`.
-#[derive(clap::Args, Debug, Clone)]
-pub struct DiagnoseArgs {
-    /// Measured record (CSV); repeat for several records fitted together.
-    #[arg(long, value_name = "MEAS.csv", required = true)]
-    pub data: Vec<std::path::PathBuf>,
-    /// Validation record, not fitted: an effect must also lower its error.
-    #[arg(long, value_name = "VAL.csv")]
-    pub validate: Option<std::path::PathBuf>,
-    /// Directory for plots and the calibrated parameter file.
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<std::path::PathBuf>,
-    /// Candidate effects (comma-separated; default: all).
-    #[arg(long, value_delimiter = ',')]
-    pub candidates: Option<Vec<String>>,
-    /// Most effects added.
-    #[arg(long, default_value_t = 3)]
-    pub max_steps: usize,
-    /// Parameters to calibrate instead of the default set (comma-separated key paths, e.g.
-    /// `motor.inertia_kg_m2,load.inertia_kg_m2,motor.resistance_ohm`).
-    #[arg(long, value_delimiter = ',')]
-    pub fit: Option<Vec<String>>,
-}
-
-/// `geared-servo diagnose`.
-pub fn run(
-    cli: &crate::host::cli::Cli,
-    a: &DiagnoseArgs,
-) -> Result<crate::host::cli::Report, HostError> {
-    use crate::host::{diagnose_plots, params_file, record};
-    let (p, name) = crate::host::cli::load_params(cli, None)?;
-    let mut data = Vec::new();
-    for path in &a.data {
-        let rec = record::read(path, true)?;
-        for w in &rec.warnings {
-            eprintln!("warning: {w}");
-        }
-        let mut q = p;
-        q.sample_period_s = rec.sample_period_s;
-        params_file::validate(
-            &q,
-            &format!("{} (sample period of the record)", path.display()),
-        )?;
-        data.push(Data::from_record(&rec, &path.display().to_string())?);
-    }
-    let val = match &a.validate {
-        Some(path) => {
-            let rec = record::read(path, true)?;
-            Some(Data::from_record(&rec, &path.display().to_string())?)
-        }
-        None => None,
-    };
-    let mut opts = Options {
-        max_steps: a.max_steps,
-        ..Options::default()
-    };
-    if let Some(c) = &a.candidates {
-        for n in c {
-            if synth::effect_unit(n).is_none() {
-                return Err(HostError::input(format!(
-                    "--candidates: unknown effect `{n}`"
-                )));
-            }
-        }
-        opts.candidates = c.clone();
-    }
-    if let Some(f) = &a.fit {
-        opts.fit = Some(f.clone());
-    }
-    let out = diagnose(&p, &data, val.as_ref(), &opts)?;
-    let first = data.first().ok_or_else(|| HostError::input("no record"))?;
-    let mut json = out.to_json(first);
-    insert(&mut json, "params", json!(name));
-    let mut text = format!(
-        "diagnose {} with {name}\n",
-        a.data
-            .iter()
-            .map(|d| d.display().to_string())
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
-    text.push_str(&out.summary());
-    if let Some(dir) = &a.out {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| HostError::other(format!("{}: cannot create: {e}", dir.display())))?;
-        let toml_path = dir.join("calibrated.toml");
-        let mut header = vec![
-            format!(
-                "calibrated by geared-servo {} diagnose",
-                env!("CARGO_PKG_VERSION")
-            ),
-            format!(
-                "from {name} against {}",
-                a.data
-                    .iter()
-                    .map(|d| d.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-            format!(
-                "NRMSE {:.4} (file) -> {:.4} (calibrated)",
-                out.nominal_analysis.nrmse, out.final_analysis.nrmse
-            ),
-        ];
-        if !out.steps.is_empty() {
-            header.push(format!(
-                "effects added: {}",
-                out.steps
-                    .iter()
-                    .map(|s| s.effect.clone())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ));
-        }
-        let mut fp = out.final_fit.params;
-        fp.sample_period_s = p.sample_period_s;
-        std::fs::write(&toml_path, params_file::to_toml(&fp, &header))
-            .map_err(|e| HostError::other(format!("{}: {e}", toml_path.display())))?;
-        diagnose_plots::time_series(
-            &dir.join("time.svg"),
-            first,
-            &out.nominal,
-            &out.final_fit.params,
-        )?;
-        diagnose_plots::residual_spectra(
-            &dir.join("residual_spectra.svg"),
-            first,
-            &out.nominal,
-            &out.final_fit.params,
-        )?;
-        std::fs::write(dir.join("diagnose.json"), format!("{json:#}"))
-            .map_err(|e| HostError::other(format!("{}: {e}", dir.display())))?;
-        text.push_str(&format!(
-            "wrote {}/calibrated.toml, time.svg, residual_spectra.svg, diagnose.json\n",
-            dir.display()
-        ));
-    }
-    Ok(crate::host::cli::Report { json, text })
 }

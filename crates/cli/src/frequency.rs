@@ -1,14 +1,16 @@
 //! The frequency-response commands of the CLI: `bode`, `resonances`, `max-backlash`,
 //! `min-voltage` (and the arguments `paper` shares with them).
 
-use crate::analyser::Hold;
-use crate::describing;
-use crate::host::cli::{load_params, Cli, Report};
-use crate::host::error::HostError;
-use crate::host::fr::{self, Bench, LocateOptions, Located, SweepOptions};
+use crate::progress::progress;
+use crate::{load_params, Cli, Report};
 use clap::{Args, ValueEnum};
+use geared_servo::analyser::Hold;
+use geared_servo::describing;
+use geared_servo_host::error::HostError;
+use geared_servo_host::fr::spread_db;
+use geared_servo_host::fr::{self, Bench, LocateOptions, Located, SweepOptions};
+use geared_servo_host::record::write_file;
 use serde_json::{json, Value};
-use std::io::Write;
 use std::path::PathBuf;
 
 /// How the sine reaches the winding (`--hold`).
@@ -52,9 +54,9 @@ impl MeasureArgs {
                 HoldArg::Continuous => Hold::Continuous,
                 HoldArg::Zoh => Hold::Zoh,
             },
-            settings: crate::analyser::SweepSettings {
+            settings: geared_servo::analyser::SweepSettings {
                 max_time_s: self.max_time_s,
-                ..crate::analyser::SweepSettings::DEFAULT
+                ..geared_servo::analyser::SweepSettings::DEFAULT
             },
             warm_start: !self.cold_start,
         })
@@ -77,8 +79,8 @@ pub fn bode(
     let freqs = fr::grid(from, to, step)?;
     let bench = Bench::new(&p, m.options(vpk)?)?;
     let pb = progress(freqs.len() as u64, "bode");
-    let pts = bench.sweep(&freqs, Some(&pb))?;
-    pb.finish_and_clear();
+    let pts = bench.sweep(&freqs, &pb)?;
+    pb.finish();
     if let Some(path) = csv_out {
         let mut s = String::from("freq_hz,gain_db,phase_deg,gain_spread_db,settled\n");
         for q in &pts {
@@ -125,20 +127,6 @@ pub fn bode(
     })
 }
 
-/// Spread of a gain in dB: the dB width of ±spread around |H|.
-pub fn spread_db(spread: f64, gain: f64) -> f64 {
-    if gain <= 0.0 {
-        return f64::INFINITY;
-    }
-    let hi = 20.0 * ((gain + spread) / gain).log10();
-    let lo = if spread < gain {
-        20.0 * (gain / (gain - spread)).log10()
-    } else {
-        f64::INFINITY
-    };
-    0.5 * (hi + lo)
-}
-
 fn located_json(l: &Option<Located>) -> Value {
     match l {
         Some(l) => json!({"freq_hz": l.freq_hz, "band_hz": [l.band_hz.0, l.band_hz.1],
@@ -161,8 +149,8 @@ pub fn resonances(
         fr::grid(lo.from_hz, lo.to_hz, lo.step_hz)?.len() as u64,
         "grid",
     );
-    let (r, _) = fr::locate(&bench, &lo, Some(&pb))?;
-    pb.finish_and_clear();
+    let (r, _) = fr::locate(&bench, &lo, &pb)?;
+    pb.finish();
     let d = p
         .derived()
         .map_err(|e| HostError::input(format!("key `{}` {}", e.field(), e.reason())))?;
@@ -264,27 +252,4 @@ pub fn min_voltage(
         d.trace.len()
     );
     Ok(Report { json, text })
-}
-
-/// A progress bar on stderr (hidden when stderr is not a terminal).
-pub fn progress(len: u64, what: &str) -> indicatif::ProgressBar {
-    let pb = indicatif::ProgressBar::with_draw_target(
-        Some(len),
-        indicatif::ProgressDrawTarget::stderr(),
-    );
-    if let Ok(style) =
-        indicatif::ProgressStyle::with_template("{msg:>8} [{bar:40}] {pos}/{len} {elapsed}")
-    {
-        pb.set_style(style.progress_chars("=> "));
-    }
-    pb.set_message(what.to_string());
-    pb
-}
-
-/// Writes `text` to `path`, naming the file on failure.
-pub fn write_file(path: &PathBuf, text: &str) -> Result<(), HostError> {
-    let mut f = std::fs::File::create(path)
-        .map_err(|e| HostError::other(format!("{}: {e}", path.display())))?;
-    f.write_all(text.as_bytes())
-        .map_err(|e| HostError::other(format!("{}: {e}", path.display())))
 }

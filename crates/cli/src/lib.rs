@@ -1,13 +1,23 @@
 //! The `geared-servo` command line (INTERFACES.md): argument definitions and the commands.
 //!
+//! This crate is the binary's library: argument parsing (clap), progress bars and the
+//! rendering of each command's result; the work is done by `geared-servo-host`.
+//!
 //! Each command returns either a JSON value (printed alone on stdout with `--json`) together
 //! with a human summary, or a [`HostError`] that the binary maps to exit status 2 or 1.
 
-use crate::host::error::HostError;
-use crate::host::scenario_file::{self, HostScenario};
-use crate::host::{fr_cli, paper, params_file, record};
-use crate::{ActuatorParams, Plant, PlantState};
+pub mod diagnose;
+pub mod frequency;
+pub mod paper;
+pub mod progress;
+pub mod synth;
+
+use crate::frequency as fr_cli;
 use clap::{Parser, Subcommand};
+use geared_servo::ActuatorParams;
+use geared_servo_host::error::HostError;
+use geared_servo_host::simulate::{simulate_with_scenario, SIMULATE_COLUMNS};
+use geared_servo_host::{params_file, record, scenario_file};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 
@@ -116,9 +126,9 @@ pub enum Command {
         bandwidth_hz: f64,
     },
     /// Synthetic measured data: excitation, extra effects, tachometer noise, seed.
-    Synth(crate::host::synth::SynthArgs),
+    Synth(crate::synth::SynthArgs),
     /// Calibrate, analyse the residual, trace it to a missing effect, report before/after.
-    Diagnose(crate::host::diagnose::DiagnoseArgs),
+    Diagnose(crate::diagnose::DiagnoseArgs),
 }
 
 /// What a command produced: the JSON object and the human-readable text.
@@ -192,9 +202,9 @@ pub fn run(cli: &Cli) -> Result<Report, HostError> {
             backlash_deg,
             measure,
         } => fr_cli::min_voltage(cli, *bandwidth_hz, *backlash_deg, measure),
-        Command::Paper { out, bandwidth_hz } => paper::run(cli, out, *bandwidth_hz),
-        Command::Synth(a) => crate::host::synth::run(cli, a),
-        Command::Diagnose(a) => crate::host::diagnose::run(cli, a),
+        Command::Paper { out, bandwidth_hz } => crate::paper::run(cli, out, *bandwidth_hz),
+        Command::Synth(a) => crate::synth::run(cli, a),
+        Command::Diagnose(a) => crate::diagnose::run(cli, a),
     }
 }
 
@@ -243,70 +253,6 @@ fn info(cli: &Cli) -> Result<Report, HostError> {
         p.sample_period_s
     );
     Ok(Report { json, text })
-}
-
-/// Columns `simulate` writes, after `time_s` and `motor_voltage_v`.
-pub const SIMULATE_COLUMNS: [&str; 8] = [
-    "tach_voltage_v",
-    "motor_speed_rad_s",
-    "load_angle_deg",
-    "current_a",
-    "load_speed_rad_s",
-    "transmitted_torque_nm",
-    "in_contact",
-    "mean_current_a",
-];
-
-/// Simulates `volts` (one per row, applied after that row's sample) from rest at period
-/// `dt`; returns the columns of [`SIMULATE_COLUMNS`], each `volts.len()` long.
-pub fn simulate_columns(
-    p: &ActuatorParams,
-    dt: f64,
-    volts: &[f64],
-) -> Result<Vec<Vec<f64>>, HostError> {
-    simulate_with_scenario(p, dt, volts, None)
-}
-
-/// [`simulate_columns`] with a fault scenario played step by step.
-pub fn simulate_with_scenario(
-    p: &ActuatorParams,
-    dt: f64,
-    volts: &[f64],
-    mut scenario: Option<&mut HostScenario>,
-) -> Result<Vec<Vec<f64>>, HostError> {
-    let mut p = *p;
-    p.sample_period_s = dt;
-    let plant = Plant::new(&p)
-        .map_err(|e| HostError::input(format!("key `{}` {}", e.field(), e.reason())))?;
-    let mut st = PlantState::REST;
-    let mut cols = vec![Vec::with_capacity(volts.len()); SIMULATE_COLUMNS.len()];
-    let mut o = plant.outputs(&st);
-    for (k, &v) in volts.iter().enumerate() {
-        let row = [
-            o.tach_voltage_v,
-            o.motor_speed_rad_s,
-            o.load_angle_deg(),
-            o.current_a,
-            o.load_speed_rad_s,
-            o.transmitted_torque_nm,
-            if o.in_contact { 1.0 } else { 0.0 },
-            o.mean_current_a,
-        ];
-        for (c, x) in cols.iter_mut().zip(row) {
-            c.push(f64::from(x));
-        }
-        o = match scenario.as_deref_mut() {
-            Some(sc) => {
-                let f = *sc.advance(k as u32);
-                // Bus sag scales the applied voltage; sensor and PWM faults were refused
-                // when the scenario was read (simulate has no sensors or bridge).
-                let bus = f.bus_factor.clamp(0.0, 10.0);
-                plant.step_with_faults(&mut st, v as f32 * bus, &f.plant)
-            }
-            None => plant.step(&mut st, v as f32),
-        };
-    }
-    Ok(cols)
 }
 
 fn simulate(

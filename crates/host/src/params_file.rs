@@ -4,15 +4,15 @@
 //! The schema is `reference-actuator.toml` (INTERFACES.md, "Parameter file"): unknown keys,
 //! missing keys, wrong types and non-physical values are errors naming the key.
 
-use crate::host::error::HostError;
-use crate::params::{
+use crate::error::HostError;
+use geared_servo::params::{
     ActuatorParams, Effects, GearTrain, LoadParams, MotorParams, Shaft, Stiffness, ToothGeometry,
 };
 use serde::Deserialize;
 use std::path::Path;
 
 /// The reference actuator's file, compiled in: the default of every `--params`.
-pub const REFERENCE_TOML: &str = include_str!("../../data/reference-actuator.toml");
+pub const REFERENCE_TOML: &str = include_str!("../../../data/reference-actuator.toml");
 
 /// Name shown in messages for the compiled-in reference file.
 pub const REFERENCE_NAME: &str = "<bundled reference-actuator.toml>";
@@ -242,7 +242,7 @@ pub fn parse(text: &str, name: &str) -> Result<ActuatorParams, HostError> {
 /// Validates a parameter set and builds its plant once, so that a set that passes here also
 /// builds on the target; the error names `name` and the key.
 pub fn validate(p: &ActuatorParams, name: &str) -> Result<(), HostError> {
-    crate::Plant::new(p)
+    geared_servo::Plant::new(p)
         .map(|_| ())
         .map_err(|e| HostError::input(format!("{name}: key `{}` {}", e.field(), e.reason())))
 }

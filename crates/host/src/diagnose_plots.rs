@@ -1,10 +1,10 @@
 //! SVG plots of a diagnosis: measured against model before and after, residual spectra
 //! before and after.
 
-use crate::host::calibrate::{self, Data};
-use crate::host::error::HostError;
-use crate::host::residual;
-use crate::ActuatorParams;
+use crate::calibrate::{self, Data};
+use crate::error::HostError;
+use crate::residual;
+use geared_servo::ActuatorParams;
 use plotters::prelude::*;
 use std::path::Path;
 

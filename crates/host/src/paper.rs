@@ -1,19 +1,19 @@
 //! `paper --out DIR`: regenerates the paper's Fig. 3–6 from simulated stepped-sine responses
 //! of the parameter set (CSV + SVG), and the design points of section III.C.
 //!
-//! Every number comes from [`crate::host::fr`]: f_AR is the refined minimum of |V_t/V_m|,
+//! Every number comes from [`crate::fr`]: f_AR is the refined minimum of |V_t/V_m|,
 //! f_R the refined minimum of |I/V_m| above it (the pole of `Ωm/T_m`, eq. 17b in the linear
 //! case), each with the band of frequencies whose value is within two block spreads of the
-//! extremum. The describing-function prediction ([`crate::describing`]) is drawn beside them.
+//! extremum. The describing-function prediction ([`geared_servo::describing`]) is drawn beside them.
 
-use crate::describing::{self, DfPrediction};
-use crate::host::cli::{load_params, Cli, Report};
-use crate::host::error::HostError;
-use crate::host::fr::{self, Bench, LocateOptions, Located, Point, SweepOptions};
-use crate::host::fr_cli::{progress, spread_db, write_file};
-use crate::host::plots;
-use crate::ActuatorParams;
-use indicatif::ProgressBar;
+use crate::error::HostError;
+use crate::fr::spread_db;
+use crate::fr::{self, Bench, LocateOptions, Located, Point, SweepOptions};
+use crate::plots;
+use crate::progress::Progress;
+use crate::record::write_file;
+use geared_servo::describing::{self, DfPrediction};
+use geared_servo::ActuatorParams;
 use rayon::prelude::*;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
@@ -163,7 +163,7 @@ fn feature_row(
         resonance: with_r,
         ..LocateOptions::default()
     };
-    let (r, _) = fr::locate(&bench, &lo, None)?;
+    let (r, _) = fr::locate(&bench, &lo, &())?;
     let mut res = r.resonance;
     let mut r_cold = None;
     if with_r && backlash_deg > 0.0 {
@@ -175,7 +175,7 @@ fn feature_row(
                 ..SweepOptions::default()
             },
         )?;
-        r_cold = fr::locate(&cold, &lo, None)?.0.resonance;
+        r_cold = fr::locate(&cold, &lo, &())?.0.resonance;
         if let (Some(w), Some(c)) = (res.as_mut(), r_cold) {
             w.band_hz.0 = w.band_hz.0.min(c.band_hz.0);
             w.band_hz.1 = w.band_hz.1.max(c.band_hz.1);
@@ -197,13 +197,13 @@ fn rows(
     params: &ActuatorParams,
     cases: &[(f64, f64)],
     with_r: bool,
-    pb: &ProgressBar,
+    pb: &dyn Progress,
 ) -> Result<Vec<FeatureRow>, HostError> {
     cases
         .par_iter()
         .map(|&(v, b)| {
             let r = feature_row(params, v, b, with_r);
-            pb.inc(1);
+            pb.advance(1);
             r
         })
         .collect()
@@ -213,13 +213,13 @@ fn rows(
 pub fn compute(
     params: &ActuatorParams,
     bandwidth_hz: f64,
-    pb: &ProgressBar,
+    pb: &dyn Progress,
 ) -> Result<PaperData, HostError> {
     let d = params.derived().map_err(|e| HostError::input(e.reason()))?;
     let bgrid = backlash_grid();
     let freqs = fr::grid(10.0, 300.0, 1.0)?;
 
-    pb.set_message("fig 3");
+    pb.stage("fig 3");
     let bode_cases: Vec<(f64, f64)> = FIG3_VPK
         .iter()
         .flat_map(|&v| FIG3_BACKLASH_DEG.iter().map(move |&b| (v, b)))
@@ -234,8 +234,8 @@ pub fn compute(
                     ..SweepOptions::default()
                 },
             )?;
-            let points = bench.sweep(&freqs, None)?;
-            pb.inc(1);
+            let points = bench.sweep(&freqs, &())?;
+            pb.advance(1);
             Ok(BodeCurve {
                 vpk,
                 backlash_deg: b,
@@ -244,21 +244,21 @@ pub fn compute(
         })
         .collect::<Result<Vec<_>, HostError>>()?;
 
-    pb.set_message("fig 4");
+    pb.stage("fig 4");
     let c4: Vec<(f64, f64)> = fig4_vpk()
         .into_iter()
         .map(|v| (v, FIG4_BACKLASH_DEG))
         .collect();
     let fig4 = rows(params, &c4, true, pb)?;
 
-    pb.set_message("fig 5");
+    pb.stage("fig 5");
     let c5: Vec<(f64, f64)> = FIG5_VPK
         .iter()
         .flat_map(|&v| bgrid.iter().map(move |&b| (v, b)))
         .collect();
     let fig5 = rows(params, &c5, true, pb)?;
 
-    pb.set_message("fig 6");
+    pb.stage("fig 6");
     let c6: Vec<(f64, f64)> = FIG6_VPK
         .iter()
         .flat_map(|&v| bgrid.iter().map(move |&b| (v, b)))
@@ -273,7 +273,7 @@ pub fn compute(
             .collect(),
     };
 
-    pb.set_message("design");
+    pb.stage("design");
     let design = PAPER_DESIGN_POINTS
         .par_iter()
         .map(|&(vpk, paper_deg)| {
@@ -286,7 +286,7 @@ pub fn compute(
                 },
                 0.001,
             )?;
-            pb.inc(1);
+            pb.advance(1);
             Ok(DesignPoint {
                 vpk,
                 max_backlash_deg: r.value,
@@ -406,7 +406,8 @@ pub fn write_all(data: &PaperData, out: &Path) -> Result<Vec<PathBuf>, HostError
     Ok(files)
 }
 
-fn summary(data: &PaperData) -> (String, Value) {
+/// The design-point table and the figures' key numbers, as text and as JSON.
+pub fn summary(data: &PaperData) -> (String, Value) {
     let mut t = format!(
         "Design points (bandwidth = f_AR >= {} Hz; bisection on simulated f_AR to 0.001 deg)\n\
          | V_pk | max backlash (simulated) | paper |\n|---:|---:|---:|\n",
@@ -475,42 +476,4 @@ fn summary(data: &PaperData) -> (String, Value) {
             .collect::<Vec<_>>(),
     });
     (t, json)
-}
-
-/// The `paper` command.
-pub fn run(cli: &Cli, out: &Path, bandwidth_hz: f64) -> Result<Report, HostError> {
-    if !(bandwidth_hz.is_finite() && bandwidth_hz > 0.0) {
-        return Err(HostError::input(format!(
-            "--bandwidth-hz must be a positive frequency, got {bandwidth_hz}"
-        )));
-    }
-    let (p, name) = load_params(cli, None)?;
-    // Fail on an unwritable directory before the computation, not after it.
-    std::fs::create_dir_all(out)
-        .map_err(|e| HostError::other(format!("{}: {e}", out.display())))?;
-    let pb = progress(job_count(), "paper");
-    let t0 = std::time::Instant::now();
-    let data = compute(&p, bandwidth_hz, &pb)?;
-    pb.finish_and_clear();
-    let files = write_all(&data, out)?;
-    let (mut text, mut json) = summary(&data);
-    let secs = t0.elapsed().as_secs_f64();
-    text.push_str(&format!(
-        "\n{} files written to {} ({name}, {:.2} s)",
-        files.len(),
-        out.display(),
-        secs
-    ));
-    write_file(&out.join("summary.md"), &text)?;
-    if let Value::Object(m) = &mut json {
-        m.insert("params".into(), json!(name));
-        m.insert(
-            "files".into(),
-            json!(files
-                .iter()
-                .map(|f| f.display().to_string())
-                .collect::<Vec<_>>()),
-        );
-    }
-    Ok(Report { json, text })
 }

@@ -3,7 +3,7 @@
 //! (bands of a Welch spectrum) and in the operating regime (near velocity reversals, at
 //! large currents, in contact or in the gap).
 
-use crate::host::calibrate::Trace;
+use crate::calibrate::Trace;
 use rustfft::{num_complex::Complex, FftPlanner};
 use serde_json::{json, Value};
 

@@ -1,7 +1,7 @@
 //! The `geared-servo` command-line tool (see INTERFACES.md and `geared-servo --help`).
 
 use clap::Parser;
-use geared_servo::host::cli::{run, Cli};
+use geared_servo_cli::{run, Cli};
 
 fn main() {
     let cli = match Cli::try_parse() {

@@ -4,7 +4,7 @@
 //! Row k: the outputs were sampled at `time_s[k]`, then `motor_voltage_v[k]` was applied
 //! until the next row. The first row's outputs are the initial state.
 
-use crate::host::error::{shown, HostError};
+use crate::error::{shown, HostError};
 use std::path::Path;
 
 /// Output columns a record may carry, in the canonical order.
@@ -270,4 +270,13 @@ pub fn write(
         writeln!(w, "{line}").map_err(io)?;
     }
     w.flush().map_err(io)
+}
+
+/// Writes `text` to `path`, naming the file on failure.
+pub fn write_file(path: &Path, text: &str) -> Result<(), HostError> {
+    use std::io::Write;
+    let mut f = std::fs::File::create(path)
+        .map_err(|e| HostError::other(format!("{}: {e}", path.display())))?;
+    f.write_all(text.as_bytes())
+        .map_err(|e| HostError::other(format!("{}: {e}", path.display())))
 }

@@ -9,14 +9,14 @@
 //! finite-difference steps (2 % relative, central) are far above the kinks that Coulomb
 //! friction and backlash put into the cost, and the report says whether the optimiser moved.
 
-use crate::host::error::HostError;
-use crate::host::record::Record;
-use crate::{ActuatorParams, Plant, PlantState};
+use crate::error::HostError;
+use crate::record::Record;
+use geared_servo::{ActuatorParams, Plant, PlantState};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
 use rayon::prelude::*;
 
-pub use crate::host::knobs::*;
+pub use crate::knobs::*;
 
 /// One record prepared for fitting.
 #[derive(Clone, Debug)]

@@ -27,9 +27,9 @@
 //! Sensor faults and a stuck PWM act on the virtual actuator's sensors and bridge
 //! (`VirtualActuator`); `simulate`, which has neither, refuses them.
 
-use crate::faults::{BrokenTooth, Jam, SensorFault, Winding};
-use crate::host::error::{shown, HostError};
-use crate::scenario::{Fault, Scenario, ScenarioError, SensorChannel, TorqueProfile};
+use crate::error::{shown, HostError};
+use geared_servo::faults::{BrokenTooth, Jam, SensorFault, Winding};
+use geared_servo::scenario::{Fault, Scenario, ScenarioError, SensorChannel, TorqueProfile};
 use serde::Deserialize;
 use std::path::Path;
 
@@ -222,10 +222,10 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
                 },
                 "backlash_wear" => {
                     let w = num(e.extra_deg, "extra_deg")?;
-                    if !(0.0..=crate::params::MAX_BACKLASH_DEG).contains(&w) {
+                    if !(0.0..=geared_servo::params::MAX_BACKLASH_DEG).contains(&w) {
                         return Err(here(format!(
                             "`extra_deg` = {w} must be within 0–{}",
-                            crate::params::MAX_BACKLASH_DEG
+                            geared_servo::params::MAX_BACKLASH_DEG
                         )));
                     }
                     Fault::BacklashWear(w as f32)

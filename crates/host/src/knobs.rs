@@ -2,9 +2,9 @@
 //! internal coordinate (log for positive quantities), bounds and finite-difference steps, and
 //! how each is read from and written into an [`ActuatorParams`].
 
-use crate::host::error::HostError;
-use crate::host::synth;
-use crate::{ActuatorParams, Stiffness};
+use crate::error::HostError;
+use crate::synth;
+use geared_servo::{ActuatorParams, Stiffness};
 
 /// Parameters calibrated by default (those that are non-zero in the file; backlash only when
 /// the file gives one). Datasheet constants (k_t, k_b, k_ts, L), the ratio and the armature
@@ -173,7 +173,7 @@ pub fn knob(p: &ActuatorParams, name: &str, max_abs_v: f64) -> Knob {
             name: name.into(),
             log: false,
             lo: 0.0,
-            hi: 0.99 * crate::plant::MAX_DELAY_STEPS as f64 * h,
+            hi: 0.99 * geared_servo::plant::MAX_DELAY_STEPS as f64 * h,
             fd_step: 0.1 * h,
         },
         "tach_gain" => Knob {

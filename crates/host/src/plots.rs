@@ -1,8 +1,8 @@
 //! SVG plots of `paper` (plotters, SVG backend): Fig. 3 Bode, Fig. 4 f vs voltage, Fig. 5
 //! f vs backlash, Fig. 6 f_AR map with iso-f_AR contours and the design points.
 
-use crate::host::error::HostError;
-use crate::host::paper::{FeatureRow, PaperData};
+use crate::error::HostError;
+use crate::paper::{FeatureRow, PaperData};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 

@@ -1,14 +1,14 @@
 //! Host side of the frequency-response tools: parallel stepped-sine sweeps (rayon), location of
 //! the anti-resonance and the resonance with sub-grid refinement, and the design queries
 //! `max-backlash` / `min-voltage`. Every simulated point runs the `no_std`
-//! [`crate::analyser::measure`], the same code the firmware example runs on target.
+//! [`geared_servo::analyser::measure`], the same code the firmware example runs on target.
 
-use crate::analyser::{self, Harmonic, Hold, SweepSettings};
-use crate::describing;
-use crate::host::error::HostError;
-use crate::linear::LinearModel;
-use crate::{ActuatorParams, Plant, SineDrive};
-use indicatif::ProgressBar;
+use crate::error::HostError;
+use crate::progress::Progress;
+use geared_servo::analyser::{self, Harmonic, Hold, SweepSettings};
+use geared_servo::describing;
+use geared_servo::linear::LinearModel;
+use geared_servo::{ActuatorParams, Plant, SineDrive};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
@@ -106,7 +106,7 @@ pub struct Bench {
     opts: SweepOptions,
 }
 
-fn param_err(e: crate::ParamError) -> HostError {
+fn param_err(e: geared_servo::ParamError) -> HostError {
     HostError::input(format!("key `{}` {}", e.field(), e.reason()))
 }
 
@@ -152,7 +152,7 @@ impl Bench {
         let start = if o.warm_start {
             self.warm.steady_state(freq_hz, o.vpk)
         } else {
-            crate::PlantState::REST
+            geared_servo::PlantState::REST
         };
         let m = analyser::measure(&self.plant, &drive, &a, o.vpk, o.hold, start);
         let [tach, current] = m.channels;
@@ -167,18 +167,12 @@ impl Bench {
     }
 
     /// Measures every frequency in parallel, ticking `progress` once per point.
-    pub fn sweep(
-        &self,
-        freqs: &[f64],
-        progress: Option<&ProgressBar>,
-    ) -> Result<Vec<Point>, HostError> {
+    pub fn sweep(&self, freqs: &[f64], progress: &dyn Progress) -> Result<Vec<Point>, HostError> {
         freqs
             .par_iter()
             .map(|&f| {
                 let p = self.point(f);
-                if let Some(pb) = progress {
-                    pb.inc(1);
-                }
+                progress.advance(1);
                 p
             })
             .collect()
@@ -197,7 +191,7 @@ pub fn grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>, HostError> {
             "--step must be positive and give at most a million points, got {step}"
         )));
     }
-    let n = libm::floor((to - from) / step + 1e-9) as usize;
+    let n = ((to - from) / step + 1e-9).floor() as usize;
     Ok((0..=n).map(|i| from + i as f64 * step).collect())
 }
 
@@ -373,7 +367,7 @@ fn argmin_from(coarse: &[Point], start: usize, value: &dyn Fn(&Point) -> f64) ->
 pub fn locate(
     bench: &Bench,
     lo: &LocateOptions,
-    progress: Option<&ProgressBar>,
+    progress: &dyn Progress,
 ) -> Result<(Resonances, Vec<Point>), HostError> {
     let freqs = grid(lo.from_hz, lo.to_hz, lo.step_hz)?;
     let coarse = bench.sweep(&freqs, progress)?;
@@ -431,7 +425,7 @@ pub fn f_ar(params: &ActuatorParams, opts: SweepOptions, tol_hz: f64) -> Result<
         tol_hz,
         resonance: false,
     };
-    let ar = locate(&bench, &lo, None)?.0.anti_resonance;
+    let ar = locate(&bench, &lo, &())?.0.anti_resonance;
     Ok(if ar.at_edge { f64::NAN } else { ar.freq_hz })
 }
 
@@ -468,10 +462,10 @@ pub fn max_backlash(
     while fa(hi, &mut trace)? >= bandwidth_hz {
         lo = hi;
         hi *= 2.0;
-        if hi > crate::params::MAX_BACKLASH_DEG {
+        if hi > geared_servo::params::MAX_BACKLASH_DEG {
             return Err(HostError::input(format!(
                 "f_AR stays above {bandwidth_hz} Hz up to {} deg of backlash",
-                crate::params::MAX_BACKLASH_DEG
+                geared_servo::params::MAX_BACKLASH_DEG
             )));
         }
     }
@@ -536,4 +530,18 @@ fn check_bandwidth(f: f64) -> Result<(), HostError> {
             "--bandwidth-hz must be a positive frequency, got {f}"
         )))
     }
+}
+
+/// Spread of a gain in dB: the dB width of ±spread around |H|.
+pub fn spread_db(spread: f64, gain: f64) -> f64 {
+    if gain <= 0.0 {
+        return f64::INFINITY;
+    }
+    let hi = 20.0 * ((gain + spread) / gain).log10();
+    let lo = if spread < gain {
+        20.0 * (gain / (gain - spread)).log10()
+    } else {
+        f64::INFINITY
+    };
+    0.5 * (hi + lo)
 }

@@ -1,0 +1,37 @@
+//! Progress bars on stderr for the long commands.
+
+use geared_servo_host::Progress;
+
+/// An indicatif bar that the host library's computations advance.
+pub struct Bar(pub indicatif::ProgressBar);
+
+impl Progress for Bar {
+    fn advance(&self, n: u64) {
+        self.0.inc(n);
+    }
+    fn stage(&self, name: &str) {
+        self.0.set_message(name.to_string());
+    }
+}
+
+impl Bar {
+    /// Clears the bar from the terminal.
+    pub fn finish(&self) {
+        self.0.finish_and_clear();
+    }
+}
+
+/// A progress bar on stderr (hidden when stderr is not a terminal).
+pub fn progress(len: u64, what: &str) -> Bar {
+    let pb = indicatif::ProgressBar::with_draw_target(
+        Some(len),
+        indicatif::ProgressDrawTarget::stderr(),
+    );
+    if let Ok(style) =
+        indicatif::ProgressStyle::with_template("{msg:>8} [{bar:40}] {pos}/{len} {elapsed}")
+    {
+        pb.set_style(style.progress_chars("=> "));
+    }
+    pb.set_message(what.to_string());
+    Bar(pb)
+}
