@@ -39,9 +39,31 @@ pub struct AnalyserConfig {
     pub rel_tol: f64,
 }
 
-/// Why a configuration was rejected: the field.
+/// Why a configuration was rejected: the name of the [`AnalyserConfig`] field that is
+/// non-finite, out of range, or inconsistent with the others (e.g. a frequency at or above
+/// Nyquist for the sample period).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ConfigError(pub &'static str);
+
+impl ConfigError {
+    /// The offending field of [`AnalyserConfig`] (`"freq_hz"`).
+    pub const fn field(&self) -> &'static str {
+        self.0
+    }
+}
+
+impl core::fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "analyser configuration: `{}` is not finite, out of range, or inconsistent with the sample period",
+            self.0
+        )
+    }
+}
+
+impl core::error::Error for ConfigError {}
 
 /// The validated analyser for `C` channels. Configuration only; the run lives in
 /// [`AnalyserState`].

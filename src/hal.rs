@@ -74,8 +74,7 @@ impl core::fmt::Display for DutyError {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for DutyError {}
+impl core::error::Error for DutyError {}
 
 /// The bridge's latched command: duty and direction.
 #[derive(Clone, Copy, Debug, PartialEq)]

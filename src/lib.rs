@@ -1,5 +1,5 @@
 #![doc = include_str!("../README.md")]
-#![cfg_attr(not(feature = "std"), no_std)]
+#![no_std]
 #![cfg_attr(
     not(test),
     deny(
@@ -9,6 +9,9 @@
         clippy::panic
     )
 )]
+
+#[cfg(test)]
+extern crate std;
 
 pub mod actuator;
 pub mod analyser;

@@ -2,7 +2,7 @@
 
 use crate::{load_params, Cli, Report};
 use geared_servo_host::calibrate::Data;
-use geared_servo_host::diagnose::{diagnose, Options};
+use geared_servo_host::diagnose::{check_fittable, diagnose, Options};
 use geared_servo_host::diagnose_report::insert;
 use geared_servo_host::{synth, HostError};
 use serde_json::json;
@@ -71,6 +71,7 @@ pub fn run(cli: &Cli, a: &DiagnoseArgs) -> Result<Report, HostError> {
         opts.candidates = c.clone();
     }
     if let Some(f) = &a.fit {
+        check_fittable(&p, f).map_err(|e| HostError::input(format!("--fit: {}", e.message)))?;
         opts.fit = Some(f.clone());
     }
     let out = diagnose(&p, &data, val.as_ref(), &opts)?;

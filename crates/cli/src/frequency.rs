@@ -42,6 +42,11 @@ pub struct MeasureArgs {
 impl MeasureArgs {
     /// The sweep options for amplitude `vpk` (V).
     pub fn options(&self, vpk: f64) -> Result<SweepOptions, HostError> {
+        if !(vpk.is_finite() && vpk > 0.0) {
+            return Err(HostError::input(format!(
+                "--vpk must be a positive number of volts, got {vpk}"
+            )));
+        }
         if !(self.max_time_s.is_finite() && self.max_time_s > 0.0) {
             return Err(HostError::input(format!(
                 "--max-time-s must be positive, got {}",

@@ -263,6 +263,27 @@ fn choose(
     Some((fit, knob, others))
 }
 
+/// Checks that every name in `names` is a parameter [`diagnose`] can calibrate
+/// ([`calibrate::FITTABLE`]) and that `params` gives it a non-zero starting value.
+pub fn check_fittable(params: &ActuatorParams, names: &[String]) -> Result<(), HostError> {
+    let nominal = calibrate::with_measured_stiffness(params)?;
+    for n in names {
+        if !calibrate::FITTABLE.contains(&n.as_str()) {
+            return Err(HostError::input(format!(
+                "`{n}` cannot be calibrated (known: {})",
+                calibrate::FITTABLE.join(", ")
+            )));
+        }
+        let v = calibrate::get(&nominal, n);
+        if v.is_nan() || v <= 0.0 {
+            return Err(HostError::input(format!(
+                "`{n}` is 0 in the parameter file; give it a starting value there"
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Runs the whole diagnosis on `data` (one or more records) from the file's parameters.
 pub fn diagnose(
     file_params: &ActuatorParams,
@@ -281,19 +302,9 @@ pub fn diagnose(
     let knobs = match &opts.fit {
         None => calibrate::default_knobs(&nominal, max_v),
         Some(names) => {
+            check_fittable(file_params, names)?;
             let mut ks = Vec::new();
             for n in names {
-                if !calibrate::FITTABLE.contains(&n.as_str()) {
-                    return Err(HostError::input(format!(
-                        "--fit: `{n}` cannot be calibrated (known: {})",
-                        calibrate::FITTABLE.join(", ")
-                    )));
-                }
-                if calibrate::get(&nominal, n).is_nan() || calibrate::get(&nominal, n) <= 0.0 {
-                    return Err(HostError::input(format!(
-                        "--fit: `{n}` is 0 in the parameter file; give it a starting value there"
-                    )));
-                }
                 ks.push(calibrate::knob(&nominal, n, max_v));
             }
             ks

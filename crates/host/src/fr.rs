@@ -116,7 +116,7 @@ impl Bench {
     pub fn new(params: &ActuatorParams, opts: SweepOptions) -> Result<Bench, HostError> {
         if !(opts.vpk.is_finite() && opts.vpk > 0.0) {
             return Err(HostError::input(format!(
-                "--vpk must be a positive number of volts, got {}",
+                "the voltage amplitude must be a positive number of volts, got {}",
                 opts.vpk
             )));
         }
