@@ -35,7 +35,8 @@ mod bare {
         } else {
             debug::EXIT_FAILURE
         });
-        // Only reached if the debugger ignores the exit request.
+        // Only reached if the debugger ignores the exit request; spinning is then harmless.
+        #[allow(clippy::empty_loop)]
         loop {}
     }
 }
