@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Wall time of `diagnose` on 20 s of 2 kHz data with all seven candidates (issue 5 benchmark).
-# Run from the repository root after `cargo build --release --features host`.
+# Run from the repository root after `cargo build --release -p geared-servo-cli`.
 set -euo pipefail
 B=target/release/geared-servo
 T=$(mktemp -d)

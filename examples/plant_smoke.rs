@@ -6,32 +6,15 @@
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
 
+#[path = "shared/harness.rs"]
+mod harness;
+#[cfg(not(target_os = "none"))]
+use harness::main;
+
 #[path = "shared/plant_smoke.rs"]
 mod plant_smoke;
 
-#[cfg(target_os = "none")]
-mod bare {
-    use cortex_m_rt::entry;
-    use cortex_m_semihosting::{debug, hprintln};
-    use panic_semihosting as _;
-
-    // A fault hangs in cortex-m-rt's default handler (a custom one needs `unsafe`, which the
-    // workspace forbids); CI runs QEMU under `timeout`.
-    #[entry]
-    fn main() -> ! {
-        let ok = super::plant_smoke::run(&mut |a| hprintln!("{}", a));
-        debug::exit(if ok {
-            debug::EXIT_SUCCESS
-        } else {
-            debug::EXIT_FAILURE
-        });
-        loop {}
-    }
-}
-
-#[cfg(not(target_os = "none"))]
-fn main() {
-    if !plant_smoke::run(&mut |a| println!("{a}")) {
-        std::process::exit(1);
-    }
+/// The run the harness starts on the host and on the target.
+fn program() -> bool {
+    plant_smoke::run(&mut harness::line)
 }

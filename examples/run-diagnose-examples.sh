@@ -1,3 +1,7 @@
+#!/usr/bin/env bash
+# Regenerates the diagnose walk-throughs of docs/diagnose.md: examples/real-data (needs the
+# bench record in ../shared/data beside the clone) and examples/synthetic-hidden-effect.
+# Run from the repository root after `cargo build --release -p geared-servo-cli`.
 set -e
 B=target/release/geared-servo
 D=examples/real-data; rm -rf $D; mkdir -p $D

@@ -3,7 +3,7 @@
 //! Run both ways:
 //! `cargo test -p geared-servo-host-tests --test math_backend -- --nocapture` (libm: every
 //! difference is exactly 0) and the same with `--features micromath` (the bounds below; the
-//! measured values are printed and written in `docs/issue4-readme.md`).
+//! measured values are printed and written in `docs/math-backend.md`).
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test fails by panicking
 
 use geared_servo::math;
@@ -118,7 +118,7 @@ fn plant_run_with_backend_matches_libm_record_within_documented_error() {
         println!("plant_smoke {name}: relative RMS difference to libm {rel:e}");
         if MICROMATH {
             // Measured with micromath 2.1: tach 2.0e-3, current 7.6e-4, angle 1.4e-4
-            // (docs/issue4-readme.md); the bound is the largest ×2.5.
+            // (docs/math-backend.md); the bound is the largest ×2.5.
             assert!(rel <= 5e-3, "{name} {rel}");
         } else {
             assert_eq!(
