@@ -52,7 +52,7 @@ pub enum Command {
         /// Override the total backlash, degrees.
         #[arg(long, value_name = "B")]
         backlash_deg: Option<f64>,
-        /// Fault scenario (TOML, see `geared_servo::host::scenario_file`).
+        /// Fault scenario (TOML, see docs/faults.md).
         #[arg(long, value_name = "FAULTS.toml")]
         scenario: Option<PathBuf>,
     },
