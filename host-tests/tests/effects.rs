@@ -2,7 +2,7 @@
 //! independent RK4 reference where that reference models it, against exact identities
 //! (shift, scale, clamp) or a finer emulator otherwise.
 
-use geared_servo::{Plant, PlantState, REFERENCE};
+use geared_servo::{Effect, Plant, PlantState, REFERENCE};
 use geared_servo_host_tests::records::{emulate, sine, square};
 use geared_servo_host_tests::reference::{relative_rms_error, Reference};
 
@@ -19,14 +19,14 @@ fn dissipative_and_spring_effects_agree_with_the_rk4_reference() {
     // Values that change the response by several percent (checked below), so an effect that
     // is silently ignored fails the test.
     let cases = [
-        ("motor_viscous", 6.0e-6),
-        ("load_viscous", 1.0e-2),
-        ("mesh_damping", 0.05),
-        ("hinge_stiffness", 5.0),
+        (Effect::MotorViscous, 6.0e-6),
+        (Effect::LoadViscous, 1.0e-2),
+        (Effect::MeshDamping, 0.05),
+        (Effect::HingeStiffness, 5.0),
     ];
     for (name, value) in cases {
         let mut p = base;
-        geared_servo_host::synth::set_effect(&mut p.effects, name, value).unwrap();
+        p.effects.set(name, value);
         for (rname, v) in &records {
             let refr = Reference::new(&p, 1e-6).unwrap().run_tach(v);
             let fine = Reference::new(&p, 0.5e-6).unwrap().run_tach(v);
