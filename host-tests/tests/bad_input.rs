@@ -8,6 +8,7 @@ use geared_servo_cli::{run, Cli};
 use geared_servo_host::{params_file, record, ErrorKind};
 
 type Setter = dyn Fn(&mut ActuatorParams, f64);
+type OwnSetter = fn(&mut ActuatorParams, f64);
 
 /// Every scalar parameter with its key and whether zero is allowed (off).
 fn fields() -> Vec<(&'static str, Box<Setter>, bool)> {
@@ -23,7 +24,7 @@ fn fields() -> Vec<(&'static str, Box<Setter>, bool)> {
             Stiffness::Measured { .. } => unreachable!("reference uses geometry"),
         }
     }
-    let own: Vec<(&'static str, fn(&mut ActuatorParams, f64), bool)> = vec![
+    let own: Vec<(&'static str, OwnSetter, bool)> = vec![
         ("sample_period_s", |p, v| p.sample_period_s = v, false),
         (
             "motor.resistance_ohm",

@@ -457,16 +457,49 @@ fn top_level(msg: &str) -> String {
 }
 
 /// Writes a parameter set in the schema of `reference-actuator.toml` (every key, so that
-/// it reads back to the identical set); `header` lines become leading `#` comments.
+/// it reads back to the identical set); `header` lines become leading `#` comments. Numbers
+/// are written in scientific notation with the fewest digits that read back exactly, and
+/// each effect with its unit in a comment (the other keys name their unit).
 pub fn to_toml(p: &ActuatorParams, header: &[String]) -> Result<String, HostError> {
-    let body = toml::to_string(&FileT::new(p))
-        .map_err(|e| HostError::other(format!("cannot write the parameter file: {e}")))?;
+    let failed =
+        |e: &dyn fmt::Display| HostError::other(format!("cannot write a parameter file: {e}"));
+    let body = toml::to_string(&FileT::new(p)).map_err(|e| failed(&e))?;
+    let mut doc: toml_edit::DocumentMut = body.parse().map_err(|e| failed(&e))?;
+    for (_, item) in doc.iter_mut() {
+        match item {
+            toml_edit::Item::Value(v) => scientific(v),
+            toml_edit::Item::Table(t) => t.iter_mut().for_each(|(_, i)| {
+                if let Some(v) = i.as_value_mut() {
+                    scientific(v);
+                }
+            }),
+            _ => {}
+        }
+    }
+    if let Some(t) = doc.get_mut("effects").and_then(|i| i.as_table_mut()) {
+        for e in Effect::ALL {
+            if let Some(v) = t.get_mut(e.name()).and_then(|i| i.as_value_mut()) {
+                v.decor_mut().set_suffix(format!("   # {}", e.unit()));
+            }
+        }
+    }
     let mut s = String::new();
     for h in header {
         s.push_str("# ");
         s.push_str(h);
         s.push('\n');
     }
-    s.push_str(&body);
+    s.push_str(&doc.to_string());
     Ok(s)
+}
+
+/// A finite float in `{:e}` form (`2.5e-7`, not `0.00000025`); anything else unchanged.
+fn scientific(v: &mut toml_edit::Value) {
+    let Some(x) = v.as_float().filter(|x| x.is_finite()) else {
+        return;
+    };
+    if let Ok(mut e) = format!("{x:e}").parse::<toml_edit::Value>() {
+        *e.decor_mut() = v.decor().clone();
+        *v = e;
+    }
 }
