@@ -4,6 +4,7 @@
 //! Every variant carries the offending field as its key path in the parameter file
 //! (`"motor.resistance_ohm"`), so the host tool can name file and key without a table.
 
+use crate::effects::Effect;
 use core::fmt;
 
 /// A parameter was rejected. The string is the key path of the offending field, exactly as
@@ -53,13 +54,13 @@ impl ParamError {
 }
 
 fn range_hint(field: &str) -> &'static str {
+    if let Some(effect) = Effect::from_key(field) {
+        return effect.domain().range_hint();
+    }
     match field {
         "backlash.total_deg" => {
             "must be below 10 degrees (a dead zone wider than that is not gear backlash)"
         }
-        "effects.tach_gain" => "must be greater than -1 (a relative gain error of -100 % or worse)",
-        "effects.input_delay" => "must be at most crate::plant::MAX_DELAY_STEPS sample periods",
-        "effects.voltage_limit" => "must be zero (no limit) or positive",
         "sample_period_s" => "must be between 1 microsecond and 1 second",
         _ => "is outside the supported range",
     }

@@ -19,6 +19,7 @@ pub mod analyser;
 pub mod cortex_m;
 pub mod describing;
 pub mod discretise;
+pub mod effects;
 pub mod error;
 pub mod faults;
 pub mod hal;
@@ -33,13 +34,14 @@ pub mod trace;
 
 pub use actuator::{Parts, VirtualActuator};
 pub use analyser::{Analyser, AnalyserConfig, Harmonic, Hold, Measurement};
+pub use effects::{Effect, Effects, UnknownEffect};
 pub use error::ParamError;
 pub use faults::{ActuatorFaults, BrokenTooth, Jam, PlantFaults, SensorFault, Winding};
 pub use hal::{Drive, DriveConfig, DutyError};
 pub use linear::{Complex, LinearModel};
 pub use params::{
-    ActuatorParams, Derived, Effects, GearTrain, LoadParams, MotorParams, Shaft, Stiffness,
-    ToothGeometry, REFERENCE,
+    ActuatorParams, Derived, GearTrain, LoadParams, MotorParams, Shaft, Stiffness, ToothGeometry,
+    REFERENCE,
 };
 pub use plant::{Outputs, Plant, PlantState, SineDrive};
 pub use sensors::{AdcChannel, EncoderConfig, EncoderShaft, Readings, SensorConfig};

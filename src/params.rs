@@ -5,8 +5,11 @@
 //! are what calibration adjusts. Every field's doc comment gives its unit and the key it has
 //! in the TOML file.
 
+use crate::effects::{Domain, Effect, Scales};
 use crate::error::ParamError;
 use crate::stiffness;
+
+pub use crate::effects::Effects;
 
 /// DC motor with a tachometer on its shaft (paper eqs. 7a–7c and 8). TOML table `[motor]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -108,50 +111,6 @@ pub struct LoadParams {
     pub inertia_kg_m2: f64,
     /// Coulomb (and static) friction torque T_fL on the load, N·m (`load.coulomb_friction_nm`).
     pub coulomb_friction_nm: f64,
-}
-
-/// Effects beyond the paper's model (INTERFACES.md, "Effect names"). All zero means off,
-/// and an effect that is off costs nothing in [`crate::Plant::step`]. TOML table `[effects]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Effects {
-    /// Viscous friction on the motor shaft, N·m·s/rad (`effects.motor_viscous`).
-    pub motor_viscous: f64,
-    /// Viscous friction on the load, N·m·s/rad (`effects.load_viscous`).
-    pub load_viscous: f64,
-    /// Damping on the twist rate while the gears are in contact, N·m·s/rad at the load
-    /// (`effects.mesh_damping`).
-    pub mesh_damping: f64,
-    /// Aerodynamic hinge moment: a spring from the load to ground, N·m/rad
-    /// (`effects.hinge_stiffness`).
-    pub hinge_stiffness: f64,
-    /// Pure delay between the commanded and the applied voltage, s (`effects.input_delay`).
-    pub input_delay: f64,
-    /// Amplifier saturation of the applied voltage, V; 0 means no limit
-    /// (`effects.voltage_limit`).
-    pub voltage_limit: f64,
-    /// Relative error of the tachometer sensitivity, dimensionless: the tachometer reads
-    /// `(1 + tach_gain) k_ts ω_m` (`effects.tach_gain`).
-    pub tach_gain: f64,
-}
-
-impl Effects {
-    /// Every effect off.
-    pub const NONE: Effects = Effects {
-        motor_viscous: 0.0,
-        load_viscous: 0.0,
-        mesh_damping: 0.0,
-        hinge_stiffness: 0.0,
-        input_delay: 0.0,
-        voltage_limit: 0.0,
-        tach_gain: 0.0,
-    };
-}
-
-impl Default for Effects {
-    fn default() -> Self {
-        Effects::NONE
-    }
 }
 
 /// Everything that defines one actuator. Build a [`crate::Plant`] from it to simulate.
@@ -276,76 +235,42 @@ fn non_negative(v: f64, f: &'static str) -> Result<f64, ParamError> {
     }
 }
 
-impl ToothGeometry {
-    fn stiffness(&self, table: Table) -> Result<f64, ParamError> {
+/// Checks field `$field` of `$s` with `$check`, naming it by its key path in table
+/// `$table`: the key is the field's own name, so field and key cannot drift apart.
+macro_rules! checked {
+    ($check:ident, $table:literal, $s:ident . $field:ident) => {
+        $check($s.$field, concat!($table, ".", stringify!($field)))?
+    };
+    ($check:ident, $table:literal, $field:ident) => {
+        $check($field, concat!($table, ".", stringify!($field)))?
+    };
+}
+
+/// Mesh stiffness of the [`ToothGeometry`] `$g` of table `$table`, N·m/rad (paper eq. 4).
+macro_rules! tooth_stiffness {
+    ($g:ident, $table:literal) => {{
         let k = stiffness::tooth_stiffness(
-            positive(self.gear_pitch_diameter_m, table.key(0))?,
-            positive(self.face_width_m, table.key(1))?,
-            positive(self.pinion_lewis_factor, table.key(2))?,
-            positive(self.gear_lewis_factor, table.key(3))?,
-            positive(self.pinion_youngs_modulus_pa, table.key(4))?,
-            positive(self.gear_youngs_modulus_pa, table.key(5))?,
+            checked!(positive, $table, $g.gear_pitch_diameter_m),
+            checked!(positive, $table, $g.face_width_m),
+            checked!(positive, $table, $g.pinion_lewis_factor),
+            checked!(positive, $table, $g.gear_lewis_factor),
+            checked!(positive, $table, $g.pinion_youngs_modulus_pa),
+            checked!(positive, $table, $g.gear_youngs_modulus_pa),
         );
-        positive(k, table.key(0))
-    }
+        positive(k, concat!($table, ".gear_pitch_diameter_m"))?
+    }};
 }
 
-impl Shaft {
-    fn stiffness(&self, table: Table) -> Result<f64, ParamError> {
+/// Torsional stiffness of the [`Shaft`] `$s` of table `$table`, N·m/rad (paper eq. 5).
+macro_rules! shaft_stiffness {
+    ($s:ident, $table:literal) => {{
         let k = stiffness::shaft_stiffness(
-            positive(self.shear_modulus_pa, table.key(0))?,
-            positive(self.diameter_m, table.key(1))?,
-            positive(self.length_m, table.key(2))?,
+            checked!(positive, $table, $s.shear_modulus_pa),
+            checked!(positive, $table, $s.diameter_m),
+            checked!(positive, $table, $s.length_m),
         );
-        positive(k, table.key(1))
-    }
-}
-
-/// Key paths of the geometry tables, for error messages.
-#[derive(Clone, Copy)]
-enum Table {
-    Stage1,
-    Stage2,
-    RotatingShaft,
-    FixedShaft,
-}
-
-impl Table {
-    fn key(self, i: usize) -> &'static str {
-        const S1: [&str; 6] = [
-            "gear_stage_1.gear_pitch_diameter_m",
-            "gear_stage_1.face_width_m",
-            "gear_stage_1.pinion_lewis_factor",
-            "gear_stage_1.gear_lewis_factor",
-            "gear_stage_1.pinion_youngs_modulus_pa",
-            "gear_stage_1.gear_youngs_modulus_pa",
-        ];
-        const S2: [&str; 6] = [
-            "gear_stage_2.gear_pitch_diameter_m",
-            "gear_stage_2.face_width_m",
-            "gear_stage_2.pinion_lewis_factor",
-            "gear_stage_2.gear_lewis_factor",
-            "gear_stage_2.pinion_youngs_modulus_pa",
-            "gear_stage_2.gear_youngs_modulus_pa",
-        ];
-        const RS: [&str; 3] = [
-            "rotating_shaft.shear_modulus_pa",
-            "rotating_shaft.diameter_m",
-            "rotating_shaft.length_m",
-        ];
-        const FS: [&str; 3] = [
-            "fixed_shaft.shear_modulus_pa",
-            "fixed_shaft.diameter_m",
-            "fixed_shaft.length_m",
-        ];
-        let keys: &[&'static str] = match self {
-            Table::Stage1 => &S1,
-            Table::Stage2 => &S2,
-            Table::RotatingShaft => &RS,
-            Table::FixedShaft => &FS,
-        };
-        keys.get(i).copied().unwrap_or("gear_train")
-    }
+        positive(k, concat!($table, ".diameter_m"))?
+    }};
 }
 
 impl ActuatorParams {
@@ -357,13 +282,13 @@ impl ActuatorParams {
             return Err(ParamError::OutOfRange("sample_period_s"));
         }
         let m = &self.motor;
-        positive(m.resistance_ohm, "motor.resistance_ohm")?;
-        positive(m.inductance_h, "motor.inductance_h")?;
-        positive(m.torque_constant_nm_per_a, "motor.torque_constant_nm_per_a")?;
-        positive(m.back_emf_v_s_per_rad, "motor.back_emf_v_s_per_rad")?;
-        positive(m.tach_v_s_per_rad, "motor.tach_v_s_per_rad")?;
-        let jm = positive(m.inertia_kg_m2, "motor.inertia_kg_m2")?;
-        non_negative(m.coulomb_friction_nm, "motor.coulomb_friction_nm")?;
+        checked!(positive, "motor", m.resistance_ohm);
+        checked!(positive, "motor", m.inductance_h);
+        checked!(positive, "motor", m.torque_constant_nm_per_a);
+        checked!(positive, "motor", m.back_emf_v_s_per_rad);
+        checked!(positive, "motor", m.tach_v_s_per_rad);
+        let jm = checked!(positive, "motor", m.inertia_kg_m2);
+        checked!(non_negative, "motor", m.coulomb_friction_nm);
 
         let g = &self.gears;
         let n1 = positive(g.stage1_ratio, "gear_stage_1.ratio")?;
@@ -377,18 +302,18 @@ impl ActuatorParams {
                 stage2,
                 shaft2,
             } => {
-                let kg1 = stage1.stiffness(Table::Stage1)?;
-                let ks1 = shaft1.stiffness(Table::RotatingShaft)?;
-                let kg2 = stage2.stiffness(Table::Stage2)?;
-                let ks2 = shaft2.stiffness(Table::FixedShaft)?;
+                let kg1 = tooth_stiffness!(stage1, "gear_stage_1");
+                let ks1 = shaft_stiffness!(shaft1, "rotating_shaft");
+                let kg2 = tooth_stiffness!(stage2, "gear_stage_2");
+                let ks2 = shaft_stiffness!(shaft2, "fixed_shaft");
                 (stiffness::series(kg1, ks1), stiffness::series(kg2, ks2))
             }
             Stiffness::Measured {
                 k1_nm_per_rad,
                 k2_nm_per_rad,
             } => (
-                positive(k1_nm_per_rad, "stiffness.k1_nm_per_rad")?,
-                positive(k2_nm_per_rad, "stiffness.k2_nm_per_rad")?,
+                checked!(positive, "stiffness", k1_nm_per_rad),
+                checked!(positive, "stiffness", k2_nm_per_rad),
             ),
         };
         let k_eq = positive(
@@ -396,26 +321,25 @@ impl ActuatorParams {
             "stiffness.k2_nm_per_rad",
         )?;
 
-        let jl = positive(self.load.inertia_kg_m2, "load.inertia_kg_m2")?;
-        non_negative(self.load.coulomb_friction_nm, "load.coulomb_friction_nm")?;
+        let l = &self.load;
+        let jl = checked!(positive, "load", l.inertia_kg_m2);
+        checked!(non_negative, "load", l.coulomb_friction_nm);
 
         let b = non_negative(self.backlash_deg, "backlash.total_deg")?;
         if b > MAX_BACKLASH_DEG {
             return Err(ParamError::OutOfRange("backlash.total_deg"));
         }
 
-        let e = &self.effects;
-        non_negative(e.motor_viscous, "effects.motor_viscous")?;
-        non_negative(e.load_viscous, "effects.load_viscous")?;
-        non_negative(e.mesh_damping, "effects.mesh_damping")?;
-        non_negative(e.hinge_stiffness, "effects.hinge_stiffness")?;
-        let d = non_negative(e.input_delay, "effects.input_delay")?;
-        if d > crate::plant::MAX_DELAY_STEPS as f64 * h {
-            return Err(ParamError::OutOfRange("effects.input_delay"));
-        }
-        non_negative(e.voltage_limit, "effects.voltage_limit")?;
-        if finite(e.tach_gain, "effects.tach_gain")? <= -1.0 {
-            return Err(ParamError::OutOfRange("effects.tach_gain"));
+        for effect in Effect::ALL {
+            let (v, key) = (self.effects.get(effect), effect.key());
+            let in_range = match effect.domain() {
+                Domain::NonNegative => non_negative(v, key)? >= 0.0,
+                Domain::Delay => non_negative(v, key)? <= crate::plant::MAX_DELAY_STEPS as f64 * h,
+                Domain::GainError => finite(v, key)? > -1.0,
+            };
+            if !in_range {
+                return Err(ParamError::OutOfRange(key));
+            }
         }
 
         let two_pi = 2.0 * core::f64::consts::PI;
@@ -432,6 +356,25 @@ impl ActuatorParams {
             f_ar_hz: positive(f_ar, "load.inertia_kg_m2")?,
             f_r_hz: positive(f_r, "motor.inertia_kg_m2")?,
         })
+    }
+
+    /// The magnitudes the effects' natural scales are made of ([`Effect::natural_scale`]),
+    /// for a record whose largest command is `max_abs_voltage_v`, V. Where the parameters are
+    /// invalid, N and k_eq are taken as 1.
+    pub fn effect_scales(&self, max_abs_voltage_v: f64) -> Scales {
+        let m = &self.motor;
+        let d = self.derived().ok();
+        let n = d.map(|d| d.n_total).unwrap_or(1.0);
+        Scales {
+            back_emf_damping: m.torque_constant_nm_per_a * m.back_emf_v_s_per_rad
+                / m.resistance_ohm,
+            n_total: n,
+            k_eq_nm_per_rad: d.map(|d| d.k_eq_nm_per_rad).unwrap_or(1.0),
+            reflected_motor_inertia_kg_m2: n * n * m.inertia_kg_m2,
+            load_inertia_kg_m2: self.load.inertia_kg_m2,
+            sample_period_s: self.sample_period_s,
+            max_abs_voltage_v,
+        }
     }
 
     /// The same actuator with another total backlash, degrees.

@@ -2,7 +2,7 @@
 //! 10–30 % from the reference file, records made from it with `synth`, and the noise floor.
 
 use geared_servo::{ActuatorParams, REFERENCE};
-use geared_servo_host::calibrate::Data;
+use geared_servo_host::calibrate::{Data, Param};
 use geared_servo_host::synth::{self, Excitation, SynthSpec, Synthetic};
 
 /// The true actuator: every parameter of the default calibration set off by 15–25 %, in
@@ -16,8 +16,8 @@ pub fn perturbed() -> ActuatorParams {
     p.load.coulomb_friction_nm *= 0.80;
     // Stiffness 18 % lower: scale both stages.
     let mut q = geared_servo_host::calibrate::with_measured_stiffness(&p).unwrap();
-    let k = geared_servo_host::calibrate::get(&q, "stiffness.k_eq_nm_per_rad");
-    geared_servo_host::calibrate::set(&mut q, "stiffness.k_eq_nm_per_rad", 0.82 * k);
+    let k = geared_servo_host::calibrate::get(&q, Param::StiffnessKeq);
+    geared_servo_host::calibrate::set(&mut q, Param::StiffnessKeq, 0.82 * k);
     q
 }
 

@@ -2,14 +2,16 @@
 //! and command lines.
 
 use clap::Parser;
-use geared_servo::{ActuatorParams, ParamError, Plant, Stiffness, REFERENCE};
+use geared_servo::effects::Domain;
+use geared_servo::{ActuatorParams, Effect, ParamError, Plant, Stiffness, REFERENCE};
 use geared_servo_cli::{run, Cli};
 use geared_servo_host::{params_file, record, ErrorKind};
 
-type Setter = fn(&mut ActuatorParams, f64);
+type Setter = dyn Fn(&mut ActuatorParams, f64);
+type OwnSetter = fn(&mut ActuatorParams, f64);
 
 /// Every scalar parameter with its key and whether zero is allowed (off).
-fn fields() -> Vec<(&'static str, Setter, bool)> {
+fn fields() -> Vec<(&'static str, Box<Setter>, bool)> {
     fn geo(p: &mut ActuatorParams) -> &mut geared_servo::ToothGeometry {
         match &mut p.gears.stiffness {
             Stiffness::Geometry { stage1, .. } => stage1,
@@ -22,7 +24,7 @@ fn fields() -> Vec<(&'static str, Setter, bool)> {
             Stiffness::Measured { .. } => unreachable!("reference uses geometry"),
         }
     }
-    vec![
+    let own: Vec<(&'static str, OwnSetter, bool)> = vec![
         ("sample_period_s", |p, v| p.sample_period_s = v, false),
         (
             "motor.resistance_ohm",
@@ -90,37 +92,19 @@ fn fields() -> Vec<(&'static str, Setter, bool)> {
             true,
         ),
         ("backlash.total_deg", |p, v| p.backlash_deg = v, true),
-        (
-            "effects.motor_viscous",
-            |p, v| p.effects.motor_viscous = v,
-            true,
-        ),
-        (
-            "effects.load_viscous",
-            |p, v| p.effects.load_viscous = v,
-            true,
-        ),
-        (
-            "effects.mesh_damping",
-            |p, v| p.effects.mesh_damping = v,
-            true,
-        ),
-        (
-            "effects.hinge_stiffness",
-            |p, v| p.effects.hinge_stiffness = v,
-            true,
-        ),
-        (
-            "effects.input_delay",
-            |p, v| p.effects.input_delay = v,
-            true,
-        ),
-        (
-            "effects.voltage_limit",
-            |p, v| p.effects.voltage_limit = v,
-            true,
-        ),
-    ]
+    ];
+    // Every effect but the gain error, whose domain is not "zero or positive".
+    let effects = Effect::ALL
+        .into_iter()
+        .filter(|e| e.domain() != Domain::GainError)
+        .map(|e| {
+            let set = move |p: &mut ActuatorParams, v| p.effects.set(e, v);
+            (e.key(), Box::new(set) as Box<Setter>, true)
+        });
+    own.into_iter()
+        .map(|(k, f, z)| (k, Box::new(f) as Box<Setter>, z))
+        .chain(effects)
+        .collect()
 }
 
 #[test]
@@ -206,19 +190,103 @@ fn bundled_reference_file_equals_the_const() {
     }
 }
 
+/// Bit for bit: `Debug` prints the shortest representation that reads back to the same
+/// `f64`, so equal text means equal bits (and tells -0.0 from 0.0, which `==` does not).
+fn bits(p: &ActuatorParams) -> String {
+    format!("{p:?}")
+}
+
+fn written_and_read(p: &ActuatorParams) -> ActuatorParams {
+    let text = params_file::to_toml(p, &["a header".into(), "over two lines".into()]).unwrap();
+    assert!(text.starts_with("# a header\n# over two lines\n"), "{text}");
+    params_file::parse(&text, "roundtrip").unwrap()
+}
+
+#[test]
+fn every_shipped_parameter_file_reads_back_identically_after_writing() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut files = vec![
+        dir.join("data/reference-actuator.toml"),
+        dir.join("data/kord-geartrain.toml"),
+    ];
+    files.push(dir.join("../shared/reference-actuator.toml"));
+    let mut read = 0;
+    for path in files.iter().filter(|f| f.exists()) {
+        let p = params_file::load(Some(path)).unwrap();
+        assert_eq!(bits(&written_and_read(&p)), bits(&p), "{}", path.display());
+        read += 1;
+    }
+    assert!(read >= 2, "the repository's own files are there");
+    assert_eq!(
+        bits(&params_file::parse(params_file::REFERENCE_TOML, "ref").unwrap()),
+        bits(&REFERENCE)
+    );
+}
+
 #[test]
 fn written_parameter_files_read_back_identically() {
     let mut p = REFERENCE.with_backlash_deg(0.05);
-    p.effects.mesh_damping = 0.01;
-    let back =
-        params_file::parse(&params_file::to_toml(&p, &["test".into()]), "roundtrip").unwrap();
-    assert_eq!(back, p);
+    // Every effect on, with values that have no short decimal form.
+    for (i, e) in Effect::ALL.into_iter().enumerate() {
+        p.effects.set(e, (i as f64 + 1.0) / 3.0e4);
+    }
+    p.motor.inertia_kg_m2 = 2.5e-7 * (1.0 + f64::EPSILON);
+    assert_eq!(bits(&written_and_read(&p)), bits(&p));
+    // The [stiffness] form, and the fixed-axis layout.
     p.gears.stiffness = Stiffness::Measured {
+        k1_nm_per_rad: 80.0 / 3.0,
+        k2_nm_per_rad: 700.0,
+    };
+    p.gears.revolving = false;
+    let back = written_and_read(&p);
+    assert_eq!(bits(&back), bits(&p));
+    assert!(matches!(back.gears.stiffness, Stiffness::Measured { .. }));
+}
+
+/// Every numeric key of a written file, in both stiffness forms, made NaN: the error names
+/// exactly that key. The core's key paths (in `ParamError`) are thereby checked against the
+/// file schema of the host.
+#[test]
+fn every_written_key_is_the_key_validation_names() {
+    let mut measured = REFERENCE;
+    measured.gears.stiffness = Stiffness::Measured {
         k1_nm_per_rad: 80.0,
         k2_nm_per_rad: 700.0,
     };
-    let back = params_file::parse(&params_file::to_toml(&p, &[]), "roundtrip").unwrap();
-    assert_eq!(back, p);
+    let mut checked = 0;
+    for p in [REFERENCE, measured] {
+        let text = params_file::to_toml(&p, &[]).unwrap();
+        let doc: toml::Table = text.parse().unwrap();
+        let mut paths = Vec::new();
+        for (k, v) in &doc {
+            match v {
+                toml::Value::Table(t) => paths.extend(
+                    t.iter()
+                        .filter(|(_, x)| x.is_float())
+                        .map(|(kk, _)| (Some(k.clone()), kk.clone())),
+                ),
+                x if x.is_float() => paths.push((None, k.clone())),
+                _ => {}
+            }
+        }
+        for (table, key) in paths {
+            let mut d = doc.clone();
+            let slot = match &table {
+                Some(t) => d.get_mut(t).and_then(|t| t.as_table_mut()).unwrap(),
+                None => &mut d,
+            };
+            slot.insert(key.clone(), toml::Value::Float(f64::NAN));
+            let path = table.map(|t| format!("{t}.{key}")).unwrap_or(key);
+            let e = params_file::parse(&toml::to_string(&d).unwrap(), "f.toml").unwrap_err();
+            assert_eq!(
+                e.message,
+                format!("f.toml: key `{path}` must be a finite number")
+            );
+            checked += 1;
+        }
+    }
+    // 1 + 7 + 7 + 3 + 7 + 3 + 2 + 1 + 7 geometry-form keys, 1 + 7 + 2 + 2 + 2 + 1 + 7 measured.
+    assert_eq!(checked, 38 + 22);
 }
 
 fn toml_error(edit: impl Fn(&str) -> String) -> String {

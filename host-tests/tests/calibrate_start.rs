@@ -2,7 +2,7 @@
 //! response (MODEL.md, "Calibrating against measured data").
 
 use geared_servo::REFERENCE;
-use geared_servo_host::calibrate::{self, frf_notch_peak};
+use geared_servo_host::calibrate::{self, frf_notch_peak, Param};
 use geared_servo_host_tests::scenario::{perturbed, record};
 
 #[test]
@@ -25,13 +25,13 @@ fn the_records_frequency_response_gives_the_notch_and_the_peak() {
 fn a_stiffness_off_by_a_factor_four_is_recovered() {
     // Beyond the coarse search's reach from the file alone (±0.7 in log per pass).
     let mut truth = perturbed();
-    let k = calibrate::get(&truth, "stiffness.k_eq_nm_per_rad");
-    calibrate::set(&mut truth, "stiffness.k_eq_nm_per_rad", 4.0 * k);
+    let k = calibrate::get(&truth, Param::StiffnessKeq);
+    calibrate::set(&mut truth, Param::StiffnessKeq, 4.0 * k);
     let (rec, floor) = record(&truth, false);
     let p0 = calibrate::with_measured_stiffness(&REFERENCE).unwrap();
     let knobs = calibrate::default_knobs(&p0, rec.max_abs_v());
     let fit = calibrate::calibrate(&p0, &knobs, std::slice::from_ref(&rec));
-    let k_fit = calibrate::get(&fit.params, "stiffness.k_eq_nm_per_rad");
+    let k_fit = calibrate::get(&fit.params, Param::StiffnessKeq);
     eprintln!(
         "k {k_fit} (true {}), nrmse {} floor {floor}",
         4.0 * k,

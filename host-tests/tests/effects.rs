@@ -2,7 +2,8 @@
 //! independent RK4 reference where that reference models it, against exact identities
 //! (shift, scale, clamp) or a finer emulator otherwise.
 
-use geared_servo::{Plant, PlantState, REFERENCE};
+use geared_servo::{Effect, Plant, PlantState, REFERENCE};
+use geared_servo_host::params_file;
 use geared_servo_host_tests::records::{emulate, sine, square};
 use geared_servo_host_tests::reference::{relative_rms_error, Reference};
 
@@ -19,14 +20,14 @@ fn dissipative_and_spring_effects_agree_with_the_rk4_reference() {
     // Values that change the response by several percent (checked below), so an effect that
     // is silently ignored fails the test.
     let cases = [
-        ("motor_viscous", 6.0e-6),
-        ("load_viscous", 1.0e-2),
-        ("mesh_damping", 0.05),
-        ("hinge_stiffness", 5.0),
+        (Effect::MotorViscous, 6.0e-6),
+        (Effect::LoadViscous, 1.0e-2),
+        (Effect::MeshDamping, 0.05),
+        (Effect::HingeStiffness, 5.0),
     ];
     for (name, value) in cases {
         let mut p = base;
-        geared_servo_host::synth::set_effect(&mut p.effects, name, value).unwrap();
+        p.effects.set(name, value);
         for (rname, v) in &records {
             let refr = Reference::new(&p, 1e-6).unwrap().run_tach(v);
             let fine = Reference::new(&p, 0.5e-6).unwrap().run_tach(v);
@@ -142,5 +143,36 @@ fn tach_gain_scales_the_tachometer_and_nothing_else() {
         let want = 1.1 * f64::from(ob.tach_voltage_v);
         // One f32 rounding of the product k_ts (1 + g) ω.
         assert!((f64::from(oa.tach_voltage_v) - want).abs() <= 1e-6 * want.abs().max(1e-3));
+    }
+}
+
+/// A registry entry without physics fails here: every effect, at a value inside its
+/// plausible range, changes the tachometer output of a square-wave record, and it does so
+/// through the parameter file's key (what `synth --effect` and `[effects]` set).
+#[test]
+fn every_registered_effect_changes_the_output_within_its_plausible_range() {
+    let base = REFERENCE.with_backlash_deg(0.08);
+    // 20 V: above the lower half of the voltage-limit range, so a limit there clips.
+    let v = square(20.0, 0.1, 1000, base.sample_period_s);
+    let y0 = emulate(&base, &v);
+    for e in Effect::ALL {
+        let (lo, hi) = e.plausible_range();
+        // The geometric mean of a positive range; the upper end of a signed one.
+        let x = if lo > 0.0 { (lo * hi).sqrt() } else { hi };
+        let text = params_file::to_toml(&base, &[]).unwrap().replace(
+            &format!("{} = 0e0", e.name()),
+            &format!("{} = {x:e}", e.name()),
+        );
+        let p = params_file::parse(&text, "effect.toml").unwrap();
+        assert_eq!(p.effects.get(e), x, "{e}: the file's key sets the effect");
+        let change = relative_rms_error(&emulate(&p, &v), &y0);
+        eprintln!(
+            "{e} = {x:e} {}: output changes by {:.3} %",
+            e.unit(),
+            100.0 * change
+        );
+        // 0.1 %: far above the f32 rounding of a 1000-step run, and well below what any of
+        // these values does (the smallest change, the delay's, is 2 %).
+        assert!(change > 1e-3, "{e} = {x:e}: output changed by {change}");
     }
 }

@@ -48,6 +48,7 @@ mod step;
 
 pub use sine::SineDrive;
 
+use crate::effects::Effect;
 use crate::error::ParamError;
 use crate::faults::{Jam, PlantFaults, Winding};
 use crate::math::{self, abs};
@@ -256,7 +257,7 @@ impl Plant {
 
         let m = &params.motor;
         let v_max = if params.effects.voltage_limit > 0.0 {
-            to_f32(params.effects.voltage_limit, "effects.voltage_limit")?.min(MAX_ABS_VOLTAGE_V)
+            to_f32(params.effects.voltage_limit, Effect::VoltageLimit.key())?.min(MAX_ABS_VOLTAGE_V)
         } else {
             MAX_ABS_VOLTAGE_V
         };
@@ -276,14 +277,14 @@ impl Plant {
             inv_n: (1.0 / d.n_total) as f32,
             inv_rh: to_f32(1.0 / (m.resistance_ohm * h), "motor.resistance_ohm")?,
             k: to_f32(d.k_eq_nm_per_rad, "stiffness.k2_nm_per_rad")?,
-            c_mesh: to_f32(params.effects.mesh_damping, "effects.mesh_damping")?,
-            k_hinge: to_f32(params.effects.hinge_stiffness, "effects.hinge_stiffness")?,
+            c_mesh: to_f32(params.effects.mesh_damping, Effect::MeshDamping.key())?,
+            k_hinge: to_f32(params.effects.hinge_stiffness, Effect::HingeStiffness.key())?,
             delta: d.delta_rad as f32,
             tf_m: to_f32(m.coulomb_friction_nm, "motor.coulomb_friction_nm")?,
             tf_l: to_f32(params.load.coulomb_friction_nm, "load.coulomb_friction_nm")?,
             tach: to_f32(
                 m.tach_v_s_per_rad * (1.0 + params.effects.tach_gain),
-                "effects.tach_gain",
+                Effect::TachGain.key(),
             )?,
             v_max,
             tau_e: to_f32(m.inductance_h / m.resistance_ohm, "motor.inductance_h")?,

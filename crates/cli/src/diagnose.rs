@@ -1,10 +1,11 @@
 //! `geared-servo diagnose`: calibrate, trace the residual, report.
 
 use crate::{load_params, Cli, Report};
+use geared_servo::Effect;
 use geared_servo_host::calibrate::Data;
-use geared_servo_host::diagnose::{check_fittable, diagnose, Options};
+use geared_servo_host::diagnose::{diagnose, fittable, Options};
 use geared_servo_host::diagnose_report::insert;
-use geared_servo_host::{synth, HostError};
+use geared_servo_host::HostError;
 use serde_json::json;
 
 /// Arguments of `geared-servo diagnose`.
@@ -61,17 +62,15 @@ pub fn run(cli: &Cli, a: &DiagnoseArgs) -> Result<Report, HostError> {
         ..Options::default()
     };
     if let Some(c) = &a.candidates {
-        for n in c {
-            if synth::effect_unit(n).is_none() {
-                return Err(HostError::input(format!(
-                    "--candidates: unknown effect `{n}`"
-                )));
-            }
-        }
-        opts.candidates = c.clone();
+        opts.candidates = c
+            .iter()
+            .map(|n| {
+                Effect::from_name(n).map_err(|e| HostError::input(format!("--candidates: {e}")))
+            })
+            .collect::<Result<_, _>>()?;
     }
     if let Some(f) = &a.fit {
-        check_fittable(&p, f).map_err(|e| HostError::input(format!("--fit: {}", e.message)))?;
+        fittable(&p, f).map_err(|e| HostError::input(format!("--fit: {}", e.message)))?;
         opts.fit = Some(f.clone());
     }
     let out = diagnose(&p, &data, val.as_ref(), &opts)?;
@@ -114,14 +113,14 @@ pub fn run(cli: &Cli, a: &DiagnoseArgs) -> Result<Report, HostError> {
                 "effects added: {}",
                 out.steps
                     .iter()
-                    .map(|s| s.effect.clone())
+                    .map(|s| s.effect.name())
                     .collect::<Vec<_>>()
                     .join(", ")
             ));
         }
         let mut fp = out.final_fit.params;
         fp.sample_period_s = p.sample_period_s;
-        std::fs::write(&toml_path, params_file::to_toml(&fp, &header))
+        std::fs::write(&toml_path, params_file::to_toml(&fp, &header)?)
             .map_err(|e| HostError::other(format!("{}: {e}", toml_path.display())))?;
         diagnose_plots::time_series(
             &dir.join("time.svg"),

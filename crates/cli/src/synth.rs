@@ -1,7 +1,7 @@
 //! `geared-servo synth`: synthetic measured data.
 
 use crate::{load_params, Cli, Report};
-use geared_servo_host::synth::{parse_effect, set_effect, synthesize, Excitation, SynthSpec};
+use geared_servo_host::synth::{parse_effect, synthesize, Excitation, SynthSpec};
 use geared_servo_host::HostError;
 
 /// Arguments of `geared-servo synth`.
@@ -48,7 +48,7 @@ pub fn run(cli: &Cli, a: &SynthArgs) -> Result<Report, HostError> {
     let mut applied = Vec::new();
     for e in &a.effects {
         let (n, v) = parse_effect(e)?;
-        set_effect(&mut p.effects, &n, v)?;
+        p.effects.set(n, v);
         applied.push(format!("effect_{n}: {v}"));
     }
     let spec = SynthSpec {

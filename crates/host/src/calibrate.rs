@@ -168,7 +168,7 @@ pub fn cost(p: &ActuatorParams, data: &[Data]) -> f64 {
 pub fn apply(p0: &ActuatorParams, knobs: &[Knob], z: &[f64]) -> ActuatorParams {
     let mut p = *p0;
     for (k, &zi) in knobs.iter().zip(z) {
-        set(&mut p, &k.name, k.from_z(zi));
+        set(&mut p, k.param, k.from_z(zi));
     }
     p
 }
@@ -267,7 +267,7 @@ pub fn coarse_search(
     for pass in 0..passes {
         let spread = if pass == 0 { 1.0 } else { 0.5 };
         for k in knobs {
-            let v = get(&best, &k.name);
+            let v = get(&best, k.param);
             let cands: Vec<f64> = if k.log {
                 [-0.7, -0.35, -0.15, 0.15, 0.35, 0.7]
                     .iter()
@@ -284,7 +284,7 @@ pub fn coarse_search(
                 .par_iter()
                 .map(|&c| {
                     let mut q = best;
-                    set(&mut q, &k.name, c);
+                    set(&mut q, k.param, c);
                     (cost(&q, data), q)
                 })
                 .collect();
@@ -313,7 +313,7 @@ pub fn levenberg_marquardt_with(
     data: &[Data],
     patience: usize,
 ) -> Fit {
-    let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, &k.name))).collect();
+    let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, k.param))).collect();
     let cost_start = cost(p0, data);
     let mut prob = Problem {
         p0: *p0,
@@ -479,8 +479,8 @@ pub fn frf_start(p: &ActuatorParams, d: &Data) -> Option<ActuatorParams> {
         return None;
     }
     let mut q = *p;
-    set(&mut q, "stiffness.k_eq_nm_per_rad", jl * w * w);
-    set(&mut q, "motor.inertia_kg_m2", jl / ratio / (n * n));
+    set(&mut q, Param::StiffnessKeq, jl * w * w);
+    set(&mut q, Param::MotorInertia, jl / ratio / (n * n));
     q.derived().ok().map(|_| q)
 }
 
@@ -490,11 +490,11 @@ pub fn calibrate(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> Fit {
     // Two starts: the file, and what the record's own frequency response says (MODEL.md:
     // the cost is multimodal in the resonance frequencies). Keep the better.
     let mut start = *p0;
-    let names: Vec<&str> = knobs.iter().map(|k| k.name.as_str()).collect();
-    if names.contains(&"stiffness.k_eq_nm_per_rad") && names.contains(&"motor.inertia_kg_m2") {
+    let has = |param: Param| knobs.iter().any(|k| k.param == param);
+    if has(Param::StiffnessKeq) && has(Param::MotorInertia) {
         if let Some(q) = data.first().and_then(|d| frf_start(p0, d)) {
             let inside = knobs.iter().all(|k| {
-                let v = get(&q, &k.name);
+                let v = get(&q, k.param);
                 v >= k.lo && v <= k.hi
             });
             if inside && cost(&q, data) < c0 {
@@ -505,7 +505,7 @@ pub fn calibrate(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> Fit {
     let (p1, _) = coarse_search(&start, knobs, data, 2);
     let mut fit = levenberg_marquardt(&p1, knobs, data);
     fit.cost_start = c0;
-    let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, &k.name))).collect();
+    let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, k.param))).collect();
     fit.moved = knobs
         .iter()
         .zip(&fit.values)
@@ -526,7 +526,7 @@ pub fn at_bounds(fit: &Fit) -> Vec<String> {
             let w = (zh - zl).abs().max(1e-300);
             (z - zl).abs() < 0.01 * w || (zh - z).abs() < 0.01 * w
         })
-        .map(|(k, _)| k.name.clone())
+        .map(|(k, _)| k.name().to_string())
         .collect()
 }
 
@@ -538,7 +538,7 @@ pub fn inseparable(fit: &Fit, limit: f64) -> Vec<(String, String, f64)> {
         for (b, &r) in row.iter().enumerate().skip(a + 1) {
             if r.abs() > limit {
                 if let (Some(ka), Some(kb)) = (fit.knobs.get(a), fit.knobs.get(b)) {
-                    out.push((ka.name.clone(), kb.name.clone(), r));
+                    out.push((ka.name().to_string(), kb.name().to_string(), r));
                 }
             }
         }

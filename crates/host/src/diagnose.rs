@@ -13,18 +13,17 @@
 //! stops when the residual is white or no candidate earns its place; structure left then is
 //! reported as unexplained, with the band and regime that hold its energy.
 
-use crate::calibrate::{self, Data, Fit, Knob};
+use crate::calibrate::{self, Data, Fit, Knob, Param};
 use crate::error::HostError;
 use crate::residual::{self, Analysis};
-use crate::synth;
-use geared_servo::ActuatorParams;
+use geared_servo::{ActuatorParams, Effect};
 use rayon::prelude::*;
 
 /// Options of the search.
 #[derive(Clone, Debug)]
 pub struct Options {
     /// Candidate effects (default: all seven).
-    pub candidates: Vec<String>,
+    pub candidates: Vec<Effect>,
     /// Most effects added.
     pub max_steps: usize,
     /// Candidates refitted fully per step (the best by their one-dimensional score).
@@ -43,7 +42,7 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            candidates: synth::EFFECTS.iter().map(|(n, _)| n.to_string()).collect(),
+            candidates: Effect::ALL.to_vec(),
             max_steps: 3,
             refit_top: 3,
             bic_threshold: -10.0,
@@ -56,8 +55,8 @@ impl Default for Options {
 /// One effect added.
 #[derive(Clone, Debug)]
 pub struct Step {
-    /// Effect name.
-    pub effect: String,
+    /// The effect.
+    pub effect: Effect,
     /// Calibrated value, in the effect's unit.
     pub value: f64,
     /// Its standard error.
@@ -69,14 +68,14 @@ pub struct Step {
     /// ΔBIC of adding it (negative = better).
     pub delta_bic: f64,
     /// Scores of every candidate at this step: (effect, predicted NRMSE, start value).
-    pub scores: Vec<(String, f64, f64)>,
+    pub scores: Vec<(Effect, f64, f64)>,
     /// The residual is still structured at the end: this effect earned its parameter but
     /// does not account for the structure, so it is not claimed with confidence.
     pub partial: bool,
     /// Other candidates that explained this record as well (within the BIC threshold):
     /// the data cannot tell them apart, and this one was chosen because it needs the least
     /// change of the parameters already calibrated.
-    pub indistinguishable_from: Vec<String>,
+    pub indistinguishable_from: Vec<Effect>,
 }
 
 /// Everything `diagnose` found.
@@ -101,10 +100,10 @@ pub struct Outcome {
     /// Residual still structured and no candidate explains it.
     pub unexplained: bool,
     /// Candidate scores of the last search: (effect, predicted NRMSE, start value).
-    pub last_scores: Vec<(String, f64, f64)>,
+    pub last_scores: Vec<(Effect, f64, f64)>,
     /// The best candidate of the last search when it did not earn its place:
     /// (effect, value, NRMSE after its refit).
-    pub rejected: Option<(String, f64, f64)>,
+    pub rejected: Option<(Effect, f64, f64)>,
 }
 
 fn rms_nrmse(cost: f64) -> f64 {
@@ -140,19 +139,19 @@ fn effective_samples(p: &ActuatorParams, data: &[Data]) -> f64 {
     (n as f64 * (1.0 - rho) / (1.0 + rho)).max(2.0)
 }
 
-/// Grid of values tried for `knob` in the one-dimensional score.
-fn grid(p: &ActuatorParams, k: &Knob, max_abs_v: f64) -> Vec<f64> {
-    let s = calibrate::effect_scale(p, &k.name, max_abs_v);
-    let v: Vec<f64> = match k.name.as_str() {
-        "input_delay" => [0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0]
+/// Grid of values tried for `effect` (whose knob is `k`) in the one-dimensional score.
+fn grid(p: &ActuatorParams, effect: Effect, k: &Knob, max_abs_v: f64) -> Vec<f64> {
+    let s = calibrate::effect_scale(p, effect, max_abs_v);
+    let v: Vec<f64> = match effect {
+        Effect::InputDelay => [0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0]
             .iter()
             .map(|f| f * s)
             .collect(),
-        "voltage_limit" => [0.3, 0.45, 0.6, 0.7, 0.8, 0.9, 0.95]
+        Effect::VoltageLimit => [0.3, 0.45, 0.6, 0.7, 0.8, 0.9, 0.95]
             .iter()
             .map(|f| f * s)
             .collect(),
-        "tach_gain" => vec![-0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3],
+        Effect::TachGain => vec![-0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3],
         _ => [1e-3, 3e-3, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0]
             .iter()
             .map(|f| f * s)
@@ -167,12 +166,17 @@ fn grid(p: &ActuatorParams, k: &Knob, max_abs_v: f64) -> Vec<f64> {
 /// by d_v together with the Jacobian of the current knobs (so that what the current knobs
 /// already compensate is not credited to the effect). Returns (knob, predicted cost, start
 /// value), best first.
-fn score(cur: &Fit, cands: &[Knob], data: &[Data], max_v: f64) -> Vec<(Knob, f64, f64)> {
+fn score(
+    cur: &Fit,
+    cands: &[(Effect, Knob)],
+    data: &[Data],
+    max_v: f64,
+) -> Vec<(Effect, Knob, f64, f64)> {
     let r0 = calibrate::residuals(&cur.params, data);
     let z: Vec<f64> = cur
         .knobs
         .iter()
-        .map(|k| k.to_z(calibrate::get(&cur.params, &k.name)))
+        .map(|k| k.to_z(calibrate::get(&cur.params, k.param)))
         .collect();
     let j = calibrate::jacobian(&cur.params, &cur.knobs, data, &z);
     let base_pred = {
@@ -182,15 +186,15 @@ fn score(cur: &Fit, cands: &[Knob], data: &[Data], max_v: f64) -> Vec<(Knob, f64
             Err(_) => r0.norm_squared(),
         }
     };
-    let mut out: Vec<(Knob, f64, f64)> = cands
+    let mut out: Vec<(Effect, Knob, f64, f64)> = cands
         .iter()
-        .map(|k| {
-            let g = grid(&cur.params, k, max_v);
+        .map(|(e, k)| {
+            let g = grid(&cur.params, *e, k, max_v);
             let best = g
                 .par_iter()
                 .filter_map(|&v| {
                     let mut q = cur.params;
-                    calibrate::set(&mut q, &k.name, v);
+                    calibrate::set(&mut q, k.param, v);
                     // d = r(v) − r0 is minus the model change; fit r0 ≈ −(J δ + α d).
                     let d = calibrate::residuals(&q, data) - &r0;
                     let mut a = j.clone().insert_column(j.ncols(), 0.0);
@@ -201,8 +205,8 @@ fn score(cur: &Fit, cands: &[Knob], data: &[Data], max_v: f64) -> Vec<(Knob, f64
                         return None;
                     }
                     let pred = (&r0 - &a * x).norm_squared();
-                    let start = match k.name.as_str() {
-                        "voltage_limit" => v,
+                    let start = match e {
+                        Effect::VoltageLimit => v,
                         _ => (v * alpha.clamp(0.3, 3.0)).clamp(k.lo, k.hi),
                     };
                     Some((pred, start))
@@ -210,10 +214,10 @@ fn score(cur: &Fit, cands: &[Knob], data: &[Data], max_v: f64) -> Vec<(Knob, f64
                 .collect::<Vec<_>>()
                 .into_iter()
                 .fold((base_pred, 0.0), |b, x| if x.0 < b.0 { x } else { b });
-            (k.clone(), best.0, best.1)
+            (*e, k.clone(), best.0, best.1)
         })
         .collect();
-    out.sort_by(|a, b| a.1.total_cmp(&b.1));
+    out.sort_by(|a, b| a.2.total_cmp(&b.2));
     out
 }
 
@@ -226,10 +230,10 @@ fn score(cur: &Fit, cands: &[Knob], data: &[Data], max_v: f64) -> Vec<(Knob, f64
 /// Returns the fit, its effect, and the other indistinguishable candidates.
 fn choose(
     cur: &Fit,
-    fits: Vec<(Fit, Knob)>,
+    fits: Vec<(Fit, Effect)>,
     n_eff: f64,
     bic_margin: f64,
-) -> Option<(Fit, Knob, Vec<String>)> {
+) -> Option<(Fit, Effect, Vec<Effect>)> {
     let best = fits
         .iter()
         .map(|(f, _)| f.cost)
@@ -252,36 +256,40 @@ fn choose(
             })
             .sum()
     };
-    let mut close: Vec<(Fit, Knob)> = fits
+    let mut close: Vec<(Fit, Effect)> = fits
         .into_iter()
         .filter(|(f, _)| n_eff * (f.cost / best).ln() < bic_margin)
         .collect();
     close.sort_by(|(a, _), (b, _)| distortion(a).total_cmp(&distortion(b)));
     let mut it = close.into_iter();
-    let (fit, knob) = it.next()?;
-    let others = it.map(|(_, k)| k.name).collect();
-    Some((fit, knob, others))
+    let (fit, effect) = it.next()?;
+    let others = it.map(|(_, e)| e).collect();
+    Some((fit, effect, others))
 }
 
-/// Checks that every name in `names` is a parameter [`diagnose`] can calibrate
-/// ([`calibrate::FITTABLE`]) and that `params` gives it a non-zero starting value.
-pub fn check_fittable(params: &ActuatorParams, names: &[String]) -> Result<(), HostError> {
+/// The parameters named in `names`, each one [`diagnose`] can calibrate
+/// ([`calibrate::FITTABLE`]) and given a non-zero starting value by `params`.
+pub fn fittable(params: &ActuatorParams, names: &[String]) -> Result<Vec<Param>, HostError> {
     let nominal = calibrate::with_measured_stiffness(params)?;
-    for n in names {
-        if !calibrate::FITTABLE.contains(&n.as_str()) {
-            return Err(HostError::input(format!(
-                "`{n}` cannot be calibrated (known: {})",
-                calibrate::FITTABLE.join(", ")
-            )));
-        }
-        let v = calibrate::get(&nominal, n);
-        if v.is_nan() || v <= 0.0 {
-            return Err(HostError::input(format!(
-                "`{n}` is 0 in the parameter file; give it a starting value there"
-            )));
-        }
-    }
-    Ok(())
+    names
+        .iter()
+        .map(|n| {
+            let Some(param) = calibrate::FITTABLE.into_iter().find(|p| p.name() == n) else {
+                let known: Vec<&str> = calibrate::FITTABLE.iter().map(|p| p.name()).collect();
+                return Err(HostError::input(format!(
+                    "`{n}` cannot be calibrated (known: {})",
+                    known.join(", ")
+                )));
+            };
+            let v = calibrate::get(&nominal, param);
+            if v.is_nan() || v <= 0.0 {
+                return Err(HostError::input(format!(
+                    "`{n}` is 0 in the parameter file; give it a starting value there"
+                )));
+            }
+            Ok(param)
+        })
+        .collect()
 }
 
 /// Runs the whole diagnosis on `data` (one or more records) from the file's parameters.
@@ -302,10 +310,9 @@ pub fn diagnose(
     let knobs = match &opts.fit {
         None => calibrate::default_knobs(&nominal, max_v),
         Some(names) => {
-            check_fittable(file_params, names)?;
             let mut ks = Vec::new();
-            for n in names {
-                ks.push(calibrate::knob(&nominal, n, max_v));
+            for param in fittable(file_params, names)? {
+                ks.push(calibrate::knob(&nominal, param, max_v));
             }
             ks
         }
@@ -317,27 +324,27 @@ pub fn diagnose(
     let mut cur_white = base_analysis.white;
     let mut steps = Vec::new();
     let mut last_scores = Vec::new();
-    let mut rejected: Option<(String, f64, f64)> = None;
+    let mut rejected: Option<(Effect, f64, f64)> = None;
     let val_cost = |p: &ActuatorParams| validation.map(|v| calibrate::nrmse(p, v));
     while steps.len() < opts.max_steps && !cur_white {
-        let cands: Vec<Knob> = opts
+        let cands: Vec<(Effect, Knob)> = opts
             .candidates
             .iter()
-            .filter(|c| calibrate::get(&cur.params, c) == 0.0)
-            .map(|c| calibrate::knob(&cur.params, c, max_v))
+            .filter(|&&c| cur.params.effects.get(c) == 0.0)
+            .map(|&c| (c, calibrate::knob(&cur.params, Param::Effect(c), max_v)))
             .collect();
         if cands.is_empty() {
             break;
         }
         let scores = score(&cur, &cands, data, max_v);
-        let score_list: Vec<(String, f64, f64)> = scores
+        let score_list: Vec<(Effect, f64, f64)> = scores
             .iter()
-            .map(|(k, c, v)| (k.name.clone(), rms_nrmse(*c), *v))
+            .map(|(e, _, c, v)| (*e, rms_nrmse(*c), *v))
             .collect();
         // Refit the best few (those predicted to explain anything at all): coarse search of
         // every knob around the start, then Levenberg–Marquardt.
-        let mut screened_fits: Vec<(Fit, Knob)> = Vec::new();
-        for (k, c, v) in scores.iter().take(opts.refit_top) {
+        let mut screened_fits: Vec<(Fit, Effect)> = Vec::new();
+        for (e, k, c, v) in scores.iter().take(opts.refit_top) {
             if c.is_nan() || *c >= cur.cost || *v == 0.0 {
                 continue;
             }
@@ -347,12 +354,8 @@ pub fn diagnose(
             // far) — a large missing effect can drag the current fit far off, to the bounds.
             let mut from_file = nominal;
             for kn in &cur.knobs {
-                if synth::effect_unit(&kn.name).is_some() {
-                    calibrate::set(
-                        &mut from_file,
-                        &kn.name,
-                        calibrate::get(&cur.params, &kn.name),
-                    );
+                if let Param::Effect(added) = kn.param {
+                    from_file.effects.set(added, cur.params.effects.get(added));
                 }
             }
             // The second start only when the current fit sits at a bound (dragged off).
@@ -366,13 +369,13 @@ pub fn diagnose(
                 // value and the best of its grid with everything else held: the projection
                 // is linear and can undershoot a strongly nonlinear effect.
                 let mut p = start;
-                calibrate::set(&mut p, &k.name, *v);
+                calibrate::set(&mut p, k.param, *v);
                 let mut best_c = calibrate::cost(&p, data);
-                let tried: Vec<(f64, ActuatorParams)> = grid(&start, k, max_v)
+                let tried: Vec<(f64, ActuatorParams)> = grid(&start, *e, k, max_v)
                     .par_iter()
                     .map(|&g| {
                         let mut q = start;
-                        calibrate::set(&mut q, &k.name, g);
+                        calibrate::set(&mut q, k.param, g);
                         (calibrate::cost(&q, data), q)
                     })
                     .collect();
@@ -387,24 +390,24 @@ pub fn diagnose(
                 let fit = calibrate::levenberg_marquardt_with(&p1, &ks, data, 4);
                 let better = screened_fits
                     .iter()
-                    .find(|(_, kk)| kk.name == k.name)
+                    .find(|(_, done)| done == e)
                     .is_none_or(|(f, _)| fit.cost < f.cost);
                 if better {
-                    screened_fits.retain(|(_, kk)| kk.name != k.name);
-                    screened_fits.push((fit, k.clone()));
+                    screened_fits.retain(|(_, done)| done != e);
+                    screened_fits.push((fit, *e));
                 }
             }
         }
         last_scores = score_list.clone();
         let n_eff = effective_samples(&cur.params, data);
-        let Some((screened, k, alternatives)) =
+        let Some((screened, effect, alternatives)) =
             choose(&cur, screened_fits, n_eff, -opts.bic_threshold)
         else {
             break;
         };
         let fit = calibrate::levenberg_marquardt(&screened.params, &screened.knobs, data);
         rejected = Some((
-            k.name.clone(),
+            effect,
             fit.values.last().copied().unwrap_or(f64::NAN),
             rms_nrmse(fit.cost),
         ));
@@ -419,7 +422,7 @@ pub fn diagnose(
         }
         let idx = fit.knobs.len() - 1;
         steps.push(Step {
-            effect: k.name.clone(),
+            effect,
             value: fit.values.get(idx).copied().unwrap_or(f64::NAN),
             std_error: fit.std_errors.get(idx).copied().unwrap_or(f64::NAN),
             nrmse_before: rms_nrmse(cur.cost),

@@ -3,7 +3,7 @@
 
 use crate::calibrate::{self, Data, Fit, Knob};
 use crate::diagnose::Outcome;
-use crate::{residual, synth};
+use crate::residual;
 use geared_servo::ActuatorParams;
 use serde_json::{json, Map, Value};
 
@@ -21,7 +21,7 @@ pub fn insert(v: &mut Value, key: &str, x: Value) {
 fn params_json(p: &ActuatorParams, knobs: &[Knob]) -> Value {
     let mut m = Map::new();
     for k in knobs {
-        m.insert(k.name.clone(), json!(calibrate::get(p, &k.name)));
+        m.insert(k.name().to_string(), json!(calibrate::get(p, k.param)));
     }
     Value::Object(m)
 }
@@ -29,13 +29,13 @@ fn params_json(p: &ActuatorParams, knobs: &[Knob]) -> Value {
 fn fit_json(f: &Fit) -> Value {
     let mut se = Map::new();
     for (k, s) in f.knobs.iter().zip(&f.std_errors) {
-        se.insert(k.name.clone(), json!(s));
+        se.insert(k.name().to_string(), json!(s));
     }
     json!({
         "nrmse": rms_nrmse(f.cost),
         "parameters": params_json(&f.params, &f.knobs),
         "std_errors": se,
-        "correlation_order": f.knobs.iter().map(|k| k.name.clone()).collect::<Vec<_>>(),
+        "correlation_order": f.knobs.iter().map(Knob::name).collect::<Vec<_>>(),
         "correlations": f.correlations,
         "inseparable": calibrate::inseparable(f, 0.95).iter().map(|(a, b, r)| json!({"a": a, "b": b, "correlation": r})).collect::<Vec<_>>(),
         "at_bounds": calibrate::at_bounds(f),
@@ -47,7 +47,7 @@ fn fit_json(f: &Fit) -> Value {
 impl Outcome {
     /// The JSON object of INTERFACES.md ("diagnose --json"), with more keys.
     pub fn to_json(&self, first: &Data) -> Value {
-        let names: Vec<String> = self.steps.iter().map(|s| s.effect.clone()).collect();
+        let names: Vec<&str> = self.steps.iter().map(|s| s.effect.name()).collect();
         let mut v = json!({
             "samples": first.y.len(),
             "sample_period_s": first.sample_period_s,
@@ -61,16 +61,16 @@ impl Outcome {
             "calibrated": fit_json(&self.base),
             "calibrated_residual": self.base_analysis.to_json(),
             "steps": self.steps.iter().map(|s| json!({
-                "effect": s.effect,
+                "effect": s.effect.name(),
                 "value": s.value,
                 "std_error": s.std_error,
-                "unit": synth::effect_unit(&s.effect).unwrap_or(""),
+                "unit": s.effect.unit(),
                 "nrmse_before": s.nrmse_before,
                 "nrmse_after": s.nrmse_after,
                 "delta_bic": s.delta_bic,
                 "partial": s.partial,
-                "indistinguishable_from": s.indistinguishable_from,
-                "candidate_scores": s.scores.iter().map(|(n, c, x)| json!({"effect": n, "predicted_nrmse": c, "start_value": x})).collect::<Vec<_>>(),
+                "indistinguishable_from": s.indistinguishable_from.iter().map(|e| e.name()).collect::<Vec<_>>(),
+                "candidate_scores": s.scores.iter().map(|(n, c, x)| json!({"effect": n.name(), "predicted_nrmse": c, "start_value": x})).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
             "added_effects": names,
             "final": {
@@ -81,13 +81,13 @@ impl Outcome {
                 "residual": self.final_analysis.to_json(),
             },
             "unexplained": self.unexplained,
-            "last_candidate_scores": self.last_scores.iter().map(|(n, c, x)| json!({"effect": n, "predicted_nrmse": c, "start_value": x})).collect::<Vec<_>>(),
+            "last_candidate_scores": self.last_scores.iter().map(|(n, c, x)| json!({"effect": n.name(), "predicted_nrmse": c, "start_value": x})).collect::<Vec<_>>(),
         });
         if let Some((n, x, e)) = &self.rejected {
             insert(
                 &mut v,
                 "rejected",
-                json!({"effect": n, "value": x, "nrmse_after_refit": e, "reason": "did not earn its parameter (BIC or validation)"}),
+                json!({"effect": n.name(), "value": x, "nrmse_after_refit": e, "reason": "did not earn its parameter (BIC or validation)"}),
             );
         }
         if self.unexplained {
@@ -143,11 +143,11 @@ impl Outcome {
             let _ = writeln!(
                 s,
                 "  {:<28} {:>12.5e} ± {:.2e} {}   (file {:.5e})",
-                k.name,
+                k.param,
                 v,
                 se,
-                calibrate::unit(&k.name),
-                calibrate::get(&self.nominal, &k.name)
+                k.param.unit(),
+                calibrate::get(&self.nominal, k.param)
             );
         }
         if self.base.moved < 1e-3 && !b.white {
@@ -173,7 +173,7 @@ impl Outcome {
                 st.effect,
                 st.value,
                 st.std_error,
-                synth::effect_unit(&st.effect).unwrap_or(""),
+                st.effect.unit(),
                 st.nrmse_before,
                 st.nrmse_after,
                 st.delta_bic,
@@ -190,7 +190,7 @@ impl Outcome {
                 let _ = writeln!(
                     s,
                     "  best candidate {n} = {v:.4e} {} would give NRMSE {e:.4}: not enough",
-                    synth::effect_unit(n).unwrap_or("")
+                    n.unit()
                 );
             }
         } else {
@@ -204,10 +204,10 @@ impl Outcome {
                 let _ = writeln!(
                     s,
                     "  {:<28} {:>12.5e} ± {:.2e} {}",
-                    k.name,
+                    k.param,
                     v,
                     se,
-                    calibrate::unit(&k.name)
+                    k.param.unit()
                 );
             }
         }

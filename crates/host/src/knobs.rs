@@ -3,8 +3,70 @@
 //! how each is read from and written into an [`ActuatorParams`].
 
 use crate::error::HostError;
-use crate::synth;
-use geared_servo::{ActuatorParams, Stiffness};
+use geared_servo::{ActuatorParams, Effect, Stiffness};
+
+/// A parameter a calibration can adjust: one of the actuator's own, named by its key path,
+/// or an effect. Its [`name`](Param::name) is what `diagnose --fit` takes and its reports
+/// print.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Param {
+    /// `motor.resistance_ohm`, Ω.
+    MotorResistance,
+    /// `motor.inertia_kg_m2`, kg·m².
+    MotorInertia,
+    /// `load.inertia_kg_m2`, kg·m².
+    LoadInertia,
+    /// `stiffness.k_eq_nm_per_rad`, N·m/rad: k1 and k2 scaled together (their ratio only
+    /// splits k_eq between the stages and is not observable from the motor side).
+    StiffnessKeq,
+    /// `motor.coulomb_friction_nm`, N·m.
+    MotorFriction,
+    /// `load.coulomb_friction_nm`, N·m.
+    LoadFriction,
+    /// `backlash.total_deg`, degrees.
+    Backlash,
+    /// `motor.tach_v_s_per_rad`, V·s/rad.
+    TachConstant,
+    /// An effect, in its unit.
+    Effect(Effect),
+}
+
+impl Param {
+    /// Key path (`motor.resistance_ohm`) or effect name (`mesh_damping`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Param::MotorResistance => "motor.resistance_ohm",
+            Param::MotorInertia => "motor.inertia_kg_m2",
+            Param::LoadInertia => "load.inertia_kg_m2",
+            Param::StiffnessKeq => "stiffness.k_eq_nm_per_rad",
+            Param::MotorFriction => "motor.coulomb_friction_nm",
+            Param::LoadFriction => "load.coulomb_friction_nm",
+            Param::Backlash => "backlash.total_deg",
+            Param::TachConstant => "motor.tach_v_s_per_rad",
+            Param::Effect(e) => e.name(),
+        }
+    }
+
+    /// Unit, as reports print it.
+    pub const fn unit(self) -> &'static str {
+        match self {
+            Param::MotorResistance => "ohm",
+            Param::MotorInertia | Param::LoadInertia => "kg*m^2",
+            Param::StiffnessKeq => "N*m/rad",
+            Param::MotorFriction | Param::LoadFriction => "N*m",
+            Param::Backlash => "deg",
+            Param::TachConstant => "V*s/rad",
+            Param::Effect(e) => e.unit(),
+        }
+    }
+}
+
+impl std::fmt::Display for Param {
+    /// The [`name`](Param::name) (padding and alignment apply).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.name())
+    }
+}
 
 /// Parameters calibrated by default (those that are non-zero in the file; backlash only when
 /// the file gives one). Datasheet constants (k_t, k_b, k_ts, L), the ratio and the armature
@@ -12,33 +74,33 @@ use geared_servo::{ActuatorParams, Stiffness};
 /// scaling R by 1/s and every mechanical quantity (inertias, stiffness, friction, effects)
 /// by s leaves the voltage-to-tachometer response unchanged (the current scales by s), so the
 /// data cannot separate R from the mechanical scale. R is the one an ohmmeter measures.
-pub const BASE_KNOBS: [&str; 6] = [
-    "motor.inertia_kg_m2",
-    "load.inertia_kg_m2",
-    "stiffness.k_eq_nm_per_rad",
-    "motor.coulomb_friction_nm",
-    "load.coulomb_friction_nm",
-    "backlash.total_deg",
+pub const BASE_KNOBS: [Param; 6] = [
+    Param::MotorInertia,
+    Param::LoadInertia,
+    Param::StiffnessKeq,
+    Param::MotorFriction,
+    Param::LoadFriction,
+    Param::Backlash,
 ];
 
 /// Every parameter `diagnose --fit` accepts: the default set, plus the armature resistance and
 /// the tachometer constant (for data that can separate them).
-pub const FITTABLE: [&str; 8] = [
-    "motor.inertia_kg_m2",
-    "load.inertia_kg_m2",
-    "stiffness.k_eq_nm_per_rad",
-    "motor.coulomb_friction_nm",
-    "load.coulomb_friction_nm",
-    "backlash.total_deg",
-    "motor.resistance_ohm",
-    "motor.tach_v_s_per_rad",
+pub const FITTABLE: [Param; 8] = [
+    Param::MotorInertia,
+    Param::LoadInertia,
+    Param::StiffnessKeq,
+    Param::MotorFriction,
+    Param::LoadFriction,
+    Param::Backlash,
+    Param::MotorResistance,
+    Param::TachConstant,
 ];
 
 /// One adjustable parameter: its name, scale and bounds.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Knob {
-    /// Key path (`motor.resistance_ohm`) or effect name (`mesh_damping`).
-    pub name: String,
+    /// The parameter.
+    pub param: Param,
     /// Logarithmic internal coordinate (positive quantities).
     pub log: bool,
     /// Lower bound, in the parameter's unit.
@@ -50,6 +112,11 @@ pub struct Knob {
 }
 
 impl Knob {
+    /// The parameter's [`name`](Param::name).
+    pub fn name(&self) -> &'static str {
+        self.param.name()
+    }
+
     /// Internal coordinate of value `v` (clamped into bounds).
     pub fn to_z(&self, v: f64) -> f64 {
         let v = v.clamp(self.lo, self.hi);
@@ -84,30 +151,30 @@ pub fn with_measured_stiffness(p: &ActuatorParams) -> Result<ActuatorParams, Hos
     Ok(q)
 }
 
-/// Value of parameter `name` in `p` (NaN if unknown).
-pub fn get(p: &ActuatorParams, name: &str) -> f64 {
-    match name {
-        "motor.resistance_ohm" => p.motor.resistance_ohm,
-        "motor.inertia_kg_m2" => p.motor.inertia_kg_m2,
-        "load.inertia_kg_m2" => p.load.inertia_kg_m2,
-        "stiffness.k_eq_nm_per_rad" => p.derived().map(|d| d.k_eq_nm_per_rad).unwrap_or(f64::NAN),
-        "motor.coulomb_friction_nm" => p.motor.coulomb_friction_nm,
-        "load.coulomb_friction_nm" => p.load.coulomb_friction_nm,
-        "backlash.total_deg" => p.backlash_deg,
-        "motor.tach_v_s_per_rad" => p.motor.tach_v_s_per_rad,
-        _ => synth::effect_value(&p.effects, name).unwrap_or(f64::NAN),
+/// Value of parameter `param` in `p` (k_eq: NaN if `p` is invalid).
+pub fn get(p: &ActuatorParams, param: Param) -> f64 {
+    match param {
+        Param::MotorResistance => p.motor.resistance_ohm,
+        Param::MotorInertia => p.motor.inertia_kg_m2,
+        Param::LoadInertia => p.load.inertia_kg_m2,
+        Param::StiffnessKeq => p.derived().map(|d| d.k_eq_nm_per_rad).unwrap_or(f64::NAN),
+        Param::MotorFriction => p.motor.coulomb_friction_nm,
+        Param::LoadFriction => p.load.coulomb_friction_nm,
+        Param::Backlash => p.backlash_deg,
+        Param::TachConstant => p.motor.tach_v_s_per_rad,
+        Param::Effect(e) => p.effects.get(e),
     }
 }
 
-/// Sets parameter `name` in `p`. The stiffness scales k1 and k2 together (their ratio, which
-/// only splits k_eq between the stages, is not observable from the motor side).
-pub fn set(p: &mut ActuatorParams, name: &str, v: f64) {
-    match name {
-        "motor.resistance_ohm" => p.motor.resistance_ohm = v,
-        "motor.inertia_kg_m2" => p.motor.inertia_kg_m2 = v,
-        "load.inertia_kg_m2" => p.load.inertia_kg_m2 = v,
-        "stiffness.k_eq_nm_per_rad" => {
-            let now = get(p, name);
+/// Sets parameter `param` in `p`. The stiffness needs the measured form
+/// ([`with_measured_stiffness`]); on geometry (or an invalid `p`) it is left unchanged.
+pub fn set(p: &mut ActuatorParams, param: Param, v: f64) {
+    match param {
+        Param::MotorResistance => p.motor.resistance_ohm = v,
+        Param::MotorInertia => p.motor.inertia_kg_m2 = v,
+        Param::LoadInertia => p.load.inertia_kg_m2 = v,
+        Param::StiffnessKeq => {
+            let now = get(p, param);
             if let Stiffness::Measured {
                 k1_nm_per_rad,
                 k2_nm_per_rad,
@@ -119,102 +186,61 @@ pub fn set(p: &mut ActuatorParams, name: &str, v: f64) {
                 }
             }
         }
-        "motor.coulomb_friction_nm" => p.motor.coulomb_friction_nm = v,
-        "load.coulomb_friction_nm" => p.load.coulomb_friction_nm = v,
-        "backlash.total_deg" => p.backlash_deg = v,
-        "motor.tach_v_s_per_rad" => p.motor.tach_v_s_per_rad = v,
-        _ => {
-            let _ = synth::set_effect(&mut p.effects, name, v);
-        }
+        Param::MotorFriction => p.motor.coulomb_friction_nm = v,
+        Param::LoadFriction => p.load.coulomb_friction_nm = v,
+        Param::Backlash => p.backlash_deg = v,
+        Param::TachConstant => p.motor.tach_v_s_per_rad = v,
+        Param::Effect(e) => p.effects.set(e, v),
     }
 }
 
-/// Unit of parameter `name`.
-pub fn unit(name: &str) -> &'static str {
-    match name {
-        "motor.resistance_ohm" => "ohm",
-        "motor.inertia_kg_m2" | "load.inertia_kg_m2" => "kg*m^2",
-        "stiffness.k_eq_nm_per_rad" => "N*m/rad",
-        "motor.coulomb_friction_nm" | "load.coulomb_friction_nm" => "N*m",
-        "backlash.total_deg" => "deg",
-        "motor.tach_v_s_per_rad" => "V*s/rad",
-        _ => synth::effect_unit(name).unwrap_or(""),
-    }
+/// Natural magnitude of `effect` for `p` ([`Effect::natural_scale`]) on a record whose
+/// largest command is `max_abs_v`, V.
+pub fn effect_scale(p: &ActuatorParams, effect: Effect, max_abs_v: f64) -> f64 {
+    effect.natural_scale(&p.effect_scales(max_abs_v))
 }
 
-/// Natural magnitude of effect `name` for `p` (the scale its search grid is built on):
-/// back-EMF damping for viscous friction, critical damping of the gear mode for mesh
-/// damping, k_eq for the hinge, one sample for the delay, the largest command for the limit.
-pub fn effect_scale(p: &ActuatorParams, name: &str, max_abs_v: f64) -> f64 {
-    let m = &p.motor;
-    let emf = m.torque_constant_nm_per_a * m.back_emf_v_s_per_rad / m.resistance_ohm;
-    let d = p.derived().ok();
-    let n = d.map(|d| d.n_total).unwrap_or(1.0);
-    let k = d.map(|d| d.k_eq_nm_per_rad).unwrap_or(1.0);
-    let (jm_l, jl) = (n * n * m.inertia_kg_m2, p.load.inertia_kg_m2);
-    match name {
-        "motor_viscous" => emf,
-        "load_viscous" => emf * n * n,
-        "mesh_damping" => 2.0 * (k * jm_l * jl / (jm_l + jl)).sqrt(),
-        "hinge_stiffness" => k,
-        "input_delay" => p.sample_period_s,
-        "voltage_limit" => max_abs_v,
-        _ => 1.0,
-    }
-}
-
-/// The knob for parameter or effect `name`, with bounds around `p`'s value (or around the
-/// effect's natural scale when the effect is off).
-pub fn knob(p: &ActuatorParams, name: &str, max_abs_v: f64) -> Knob {
-    let v = get(p, name);
+/// The knob for `param`, with bounds around `p`'s value (or, for an effect, around its
+/// natural scale: an effect to be found is off in `p`).
+pub fn knob(p: &ActuatorParams, param: Param, max_abs_v: f64) -> Knob {
     let h = p.sample_period_s;
-    match name {
-        "input_delay" => Knob {
-            name: name.into(),
-            log: false,
-            lo: 0.0,
-            hi: 0.99 * geared_servo::plant::MAX_DELAY_STEPS as f64 * h,
-            fd_step: 0.1 * h,
-        },
-        "tach_gain" => Knob {
-            name: name.into(),
-            log: false,
-            lo: -0.9,
-            hi: 3.0,
-            fd_step: 0.01,
-        },
-        "voltage_limit" => Knob {
-            name: name.into(),
-            log: true,
-            lo: 0.02 * max_abs_v.max(1e-3),
-            hi: 2.0 * max_abs_v.max(1e-3),
-            fd_step: 0.01,
-        },
-        _ if synth::effect_unit(name).is_some() => {
-            let s = effect_scale(p, name, max_abs_v);
-            Knob {
-                name: name.into(),
-                log: true,
-                lo: s * 1e-5,
-                hi: s * 1e3,
-                fd_step: 0.02,
-            }
+    let (log, lo, hi, fd_step) = match param {
+        Param::Effect(Effect::InputDelay) => (
+            false,
+            0.0,
+            0.99 * geared_servo::plant::MAX_DELAY_STEPS as f64 * h,
+            0.1 * h,
+        ),
+        Param::Effect(Effect::TachGain) => (false, -0.9, 3.0, 0.01),
+        Param::Effect(Effect::VoltageLimit) => (
+            true,
+            0.02 * max_abs_v.max(1e-3),
+            2.0 * max_abs_v.max(1e-3),
+            0.01,
+        ),
+        Param::Effect(e) => {
+            let s = effect_scale(p, e, max_abs_v);
+            (true, s * 1e-5, s * 1e3, 0.02)
         }
-        _ => Knob {
-            name: name.into(),
-            log: true,
-            lo: v / 30.0,
-            hi: v * 30.0,
-            fd_step: 0.02,
-        },
+        _ => {
+            let v = get(p, param);
+            (true, v / 30.0, v * 30.0, 0.02)
+        }
+    };
+    Knob {
+        param,
+        log,
+        lo,
+        hi,
+        fd_step,
     }
 }
 
 /// The default set for `p`: every base parameter that is non-zero there.
 pub fn default_knobs(p: &ActuatorParams, max_abs_v: f64) -> Vec<Knob> {
     BASE_KNOBS
-        .iter()
-        .filter(|n| get(p, n) > 0.0)
+        .into_iter()
+        .filter(|&n| get(p, n) > 0.0)
         .map(|n| knob(p, n, max_abs_v))
         .collect()
 }

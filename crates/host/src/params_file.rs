@@ -6,9 +6,13 @@
 
 use crate::error::HostError;
 use geared_servo::params::{
-    ActuatorParams, Effects, GearTrain, LoadParams, MotorParams, Shaft, Stiffness, ToothGeometry,
+    ActuatorParams, GearTrain, LoadParams, MotorParams, Shaft, Stiffness, ToothGeometry,
 };
-use serde::Deserialize;
+use geared_servo::{Effect, Effects};
+use serde::de::{self, Deserializer, MapAccess, Visitor};
+use serde::ser::{SerializeStruct, Serializer};
+use serde::{Deserialize, Serialize};
+use std::fmt;
 use std::path::Path;
 
 /// The reference actuator's file, compiled in: the default of every `--params`.
@@ -17,23 +21,35 @@ pub const REFERENCE_TOML: &str = include_str!("../../../data/reference-actuator.
 /// Name shown in messages for the compiled-in reference file.
 pub const REFERENCE_NAME: &str = "<bundled reference-actuator.toml>";
 
-#[derive(Deserialize)]
+/// The file, table by table: the schema of INTERFACES.md "Parameter file", read and written
+/// by these derives. Unknown keys are errors (`deny_unknown_fields`); optional keys are
+/// `Option`s and are left out when written.
+#[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct FileT {
+    /// Default 0.0005 s (2 kHz).
     sample_period_s: Option<f64>,
-    motor: MotorT,
+    #[serde(with = "MotorT")]
+    motor: MotorParams,
     gear_stage_1: StageT,
+    #[serde(skip_serializing_if = "Option::is_none")]
     rotating_shaft: Option<ShaftT>,
     gear_stage_2: StageT,
+    #[serde(skip_serializing_if = "Option::is_none")]
     fixed_shaft: Option<ShaftT>,
+    /// Measured stiffness, instead of the geometry of the stages and shafts.
+    #[serde(skip_serializing_if = "Option::is_none")]
     stiffness: Option<StiffnessT>,
-    load: LoadT,
+    #[serde(with = "LoadT")]
+    load: LoadParams,
     backlash: BacklashT,
+    /// Every effect off when absent.
     effects: Option<EffectsT>,
 }
 
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+/// `[motor]`: the core's [`MotorParams`], key for field (serde checks the two agree).
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "MotorParams", deny_unknown_fields)]
 struct MotorT {
     resistance_ohm: f64,
     inductance_h: f64,
@@ -44,57 +60,113 @@ struct MotorT {
     coulomb_friction_nm: f64,
 }
 
-#[derive(Deserialize)]
+/// `[gear_stage_1]`, `[gear_stage_2]`: the ratio, the layout (stage 2 only) and, unless a
+/// `[stiffness]` table is given, the tooth geometry.
+#[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct StageT {
     ratio: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
     revolving: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     gear_pitch_diameter_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     face_width_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pinion_lewis_factor: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     gear_lewis_factor: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pinion_youngs_modulus_pa: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     gear_youngs_modulus_pa: Option<f64>,
 }
 
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ShaftT {
+/// `[rotating_shaft]`, `[fixed_shaft]`: the core's [`Shaft`].
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "Shaft", deny_unknown_fields)]
+struct ShaftDef {
     shear_modulus_pa: f64,
     diameter_m: f64,
     length_m: f64,
 }
 
-#[derive(Deserialize)]
+/// A [`Shaft`] table (a wrapper, so that it can be optional).
+#[derive(Serialize, Deserialize)]
+struct ShaftT(#[serde(with = "ShaftDef")] Shaft);
+
+#[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct StiffnessT {
     k1_nm_per_rad: f64,
     k2_nm_per_rad: f64,
 }
 
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+/// `[load]`: the core's [`LoadParams`].
+#[derive(Serialize, Deserialize)]
+#[serde(remote = "LoadParams", deny_unknown_fields)]
 struct LoadT {
     inertia_kg_m2: f64,
     coulomb_friction_nm: f64,
 }
 
-#[derive(Deserialize)]
+#[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct BacklashT {
     total_deg: f64,
 }
 
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct EffectsT {
-    motor_viscous: Option<f64>,
-    load_viscous: Option<f64>,
-    mesh_damping: Option<f64>,
-    hinge_stiffness: Option<f64>,
-    input_delay: Option<f64>,
-    voltage_limit: Option<f64>,
-    tach_gain: Option<f64>,
+/// `[effects]`: one key per entry of the effect registry ([`Effect::ALL`]), each optional
+/// (off when absent); any other key is an unknown field, as in the derived tables.
+struct EffectsT(Effects);
+
+impl Serialize for EffectsT {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut t = s.serialize_struct("EffectsT", Effect::ALL.len())?;
+        for e in Effect::ALL {
+            t.serialize_field(e.name(), &self.0.get(e))?;
+        }
+        t.end()
+    }
+}
+
+impl<'de> Deserialize<'de> for EffectsT {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        /// A key of `[effects]`, rejected as serde's derive rejects an unknown field.
+        struct Key(Effect);
+        impl<'de> Deserialize<'de> for Key {
+            fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                struct Name;
+                impl Visitor<'_> for Name {
+                    type Value = Key;
+                    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                        f.write_str("field identifier")
+                    }
+                    fn visit_str<E: de::Error>(self, v: &str) -> Result<Key, E> {
+                        Effect::from_name(v)
+                            .map(Key)
+                            .map_err(|_| E::unknown_field(v, &Effect::NAMES))
+                    }
+                }
+                d.deserialize_identifier(Name)
+            }
+        }
+        struct Table;
+        impl<'de> Visitor<'de> for Table {
+            type Value = EffectsT;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("struct EffectsT")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<EffectsT, A::Error> {
+                let mut e = Effects::NONE;
+                while let Some(Key(k)) = map.next_key()? {
+                    e.set(k, map.next_value()?);
+                }
+                Ok(EffectsT(e))
+            }
+        }
+        d.deserialize_struct("EffectsT", &Effect::NAMES, Table)
+    }
 }
 
 impl StageT {
@@ -107,6 +179,20 @@ impl StageT {
             ("pinion_youngs_modulus_pa", self.pinion_youngs_modulus_pa),
             ("gear_youngs_modulus_pa", self.gear_youngs_modulus_pa),
         ]
+    }
+
+    /// A stage of `ratio` with the given geometry (`None`: measured stiffness).
+    fn new(ratio: f64, revolving: Option<bool>, g: Option<&ToothGeometry>) -> StageT {
+        StageT {
+            ratio,
+            revolving,
+            gear_pitch_diameter_m: g.map(|g| g.gear_pitch_diameter_m),
+            face_width_m: g.map(|g| g.face_width_m),
+            pinion_lewis_factor: g.map(|g| g.pinion_lewis_factor),
+            gear_lewis_factor: g.map(|g| g.gear_lewis_factor),
+            pinion_youngs_modulus_pa: g.map(|g| g.pinion_youngs_modulus_pa),
+            gear_youngs_modulus_pa: g.map(|g| g.gear_youngs_modulus_pa),
+        }
     }
 
     fn geometry(&self, table: &str, file: &str) -> Result<ToothGeometry, HostError> {
@@ -131,13 +217,126 @@ impl StageT {
     }
 }
 
-impl ShaftT {
-    fn shaft(&self) -> Shaft {
-        Shaft {
-            shear_modulus_pa: self.shear_modulus_pa,
-            diameter_m: self.diameter_m,
-            length_m: self.length_m,
+impl FileT {
+    /// The file form of `p`: every key written, geometry or `[stiffness]` as `p` has it.
+    fn new(p: &ActuatorParams) -> FileT {
+        let g = &p.gears;
+        let (stage1, shaft1, stage2, shaft2, stiffness) = match &g.stiffness {
+            Stiffness::Geometry {
+                stage1,
+                shaft1,
+                stage2,
+                shaft2,
+            } => (
+                Some(stage1),
+                Some(*shaft1),
+                Some(stage2),
+                Some(*shaft2),
+                None,
+            ),
+            Stiffness::Measured {
+                k1_nm_per_rad,
+                k2_nm_per_rad,
+            } => (
+                None,
+                None,
+                None,
+                None,
+                Some(StiffnessT {
+                    k1_nm_per_rad: *k1_nm_per_rad,
+                    k2_nm_per_rad: *k2_nm_per_rad,
+                }),
+            ),
+        };
+        FileT {
+            sample_period_s: Some(p.sample_period_s),
+            motor: p.motor,
+            gear_stage_1: StageT::new(g.stage1_ratio, None, stage1),
+            rotating_shaft: shaft1.map(ShaftT),
+            gear_stage_2: StageT::new(g.stage2_ratio, Some(g.revolving), stage2),
+            fixed_shaft: shaft2.map(ShaftT),
+            stiffness,
+            load: p.load,
+            backlash: BacklashT {
+                total_deg: p.backlash_deg,
+            },
+            effects: Some(EffectsT(p.effects)),
         }
+    }
+
+    /// The parameter set (not validated); errors for what the derives cannot say: a key
+    /// allowed only in one of the two stiffness forms, or missing in the one given.
+    fn params(self, name: &str) -> Result<ActuatorParams, HostError> {
+        let f = self;
+        if f.gear_stage_1.revolving.is_some() {
+            return Err(HostError::input(format!(
+                "{name}: key `gear_stage_1.revolving` is not allowed (only stage 2 can revolve)"
+            )));
+        }
+        let stiffness = match &f.stiffness {
+            Some(st) => {
+                for (table, stage) in [
+                    ("gear_stage_1", &f.gear_stage_1),
+                    ("gear_stage_2", &f.gear_stage_2),
+                ] {
+                    if let Some((key, _)) =
+                        stage.geometry_keys().into_iter().find(|(_, v)| v.is_some())
+                    {
+                        return Err(HostError::input(format!(
+                            "{name}: key `{table}.{key}` conflicts with the [stiffness] table (give either geometry or measured stiffness)"
+                        )));
+                    }
+                }
+                for (table, shaft) in [
+                    ("rotating_shaft", &f.rotating_shaft),
+                    ("fixed_shaft", &f.fixed_shaft),
+                ] {
+                    if shaft.is_some() {
+                        return Err(HostError::input(format!(
+                            "{name}: table [{table}] conflicts with the [stiffness] table (give either geometry or measured stiffness)"
+                        )));
+                    }
+                }
+                Stiffness::Measured {
+                    k1_nm_per_rad: st.k1_nm_per_rad,
+                    k2_nm_per_rad: st.k2_nm_per_rad,
+                }
+            }
+            None => {
+                let missing = |t: &str| {
+                    HostError::input(format!(
+                        "{name}: missing table [{t}] (give the shaft geometry, or k1 and k2 in a [stiffness] table)"
+                    ))
+                };
+                Stiffness::Geometry {
+                    stage1: f.gear_stage_1.geometry("gear_stage_1", name)?,
+                    shaft1: f
+                        .rotating_shaft
+                        .as_ref()
+                        .ok_or_else(|| missing("rotating_shaft"))?
+                        .0,
+                    stage2: f.gear_stage_2.geometry("gear_stage_2", name)?,
+                    shaft2: f
+                        .fixed_shaft
+                        .as_ref()
+                        .ok_or_else(|| missing("fixed_shaft"))?
+                        .0,
+                }
+            }
+        };
+        Ok(ActuatorParams {
+            sample_period_s: f.sample_period_s.unwrap_or(0.0005),
+            motor: f.motor,
+            gears: GearTrain {
+                stage1_ratio: f.gear_stage_1.ratio,
+                stage2_ratio: f.gear_stage_2.ratio,
+                revolving: f.gear_stage_2.revolving.unwrap_or(true),
+                stiffness,
+            },
+            load: f.load,
+            backlash_deg: f.backlash.total_deg,
+            effects: f.effects.map(|e| e.0).unwrap_or(Effects::NONE),
+        })
     }
 }
 
@@ -145,96 +344,7 @@ impl ShaftT {
 pub fn parse(text: &str, name: &str) -> Result<ActuatorParams, HostError> {
     let f: FileT =
         toml::from_str(text).map_err(|e| HostError::input(toml_message(name, text, &e)))?;
-    let revolving = f.gear_stage_2.revolving.unwrap_or(true);
-    if f.gear_stage_1.revolving.is_some() {
-        return Err(HostError::input(format!(
-            "{name}: key `gear_stage_1.revolving` is not allowed (only stage 2 can revolve)"
-        )));
-    }
-    let stiffness = match &f.stiffness {
-        Some(st) => {
-            for (table, stage) in [
-                ("gear_stage_1", &f.gear_stage_1),
-                ("gear_stage_2", &f.gear_stage_2),
-            ] {
-                if let Some((key, _)) = stage.geometry_keys().into_iter().find(|(_, v)| v.is_some())
-                {
-                    return Err(HostError::input(format!(
-                        "{name}: key `{table}.{key}` conflicts with the [stiffness] table (give either geometry or measured stiffness)"
-                    )));
-                }
-            }
-            for (table, shaft) in [
-                ("rotating_shaft", &f.rotating_shaft),
-                ("fixed_shaft", &f.fixed_shaft),
-            ] {
-                if shaft.is_some() {
-                    return Err(HostError::input(format!(
-                        "{name}: table [{table}] conflicts with the [stiffness] table (give either geometry or measured stiffness)"
-                    )));
-                }
-            }
-            Stiffness::Measured {
-                k1_nm_per_rad: st.k1_nm_per_rad,
-                k2_nm_per_rad: st.k2_nm_per_rad,
-            }
-        }
-        None => {
-            let missing = |t: &str| {
-                HostError::input(format!(
-                    "{name}: missing table [{t}] (give the shaft geometry, or k1 and k2 in a [stiffness] table)"
-                ))
-            };
-            Stiffness::Geometry {
-                stage1: f.gear_stage_1.geometry("gear_stage_1", name)?,
-                shaft1: f
-                    .rotating_shaft
-                    .as_ref()
-                    .ok_or_else(|| missing("rotating_shaft"))?
-                    .shaft(),
-                stage2: f.gear_stage_2.geometry("gear_stage_2", name)?,
-                shaft2: f
-                    .fixed_shaft
-                    .as_ref()
-                    .ok_or_else(|| missing("fixed_shaft"))?
-                    .shaft(),
-            }
-        }
-    };
-    let e = f.effects.unwrap_or_default();
-    let m = &f.motor;
-    let p = ActuatorParams {
-        sample_period_s: f.sample_period_s.unwrap_or(0.0005),
-        motor: MotorParams {
-            resistance_ohm: m.resistance_ohm,
-            inductance_h: m.inductance_h,
-            torque_constant_nm_per_a: m.torque_constant_nm_per_a,
-            back_emf_v_s_per_rad: m.back_emf_v_s_per_rad,
-            tach_v_s_per_rad: m.tach_v_s_per_rad,
-            inertia_kg_m2: m.inertia_kg_m2,
-            coulomb_friction_nm: m.coulomb_friction_nm,
-        },
-        gears: GearTrain {
-            stage1_ratio: f.gear_stage_1.ratio,
-            stage2_ratio: f.gear_stage_2.ratio,
-            revolving,
-            stiffness,
-        },
-        load: LoadParams {
-            inertia_kg_m2: f.load.inertia_kg_m2,
-            coulomb_friction_nm: f.load.coulomb_friction_nm,
-        },
-        backlash_deg: f.backlash.total_deg,
-        effects: Effects {
-            motor_viscous: e.motor_viscous.unwrap_or(0.0),
-            load_viscous: e.load_viscous.unwrap_or(0.0),
-            mesh_damping: e.mesh_damping.unwrap_or(0.0),
-            hinge_stiffness: e.hinge_stiffness.unwrap_or(0.0),
-            input_delay: e.input_delay.unwrap_or(0.0),
-            voltage_limit: e.voltage_limit.unwrap_or(0.0),
-            tach_gain: e.tach_gain.unwrap_or(0.0),
-        },
-    };
+    let p = f.params(name)?;
     validate(&p, name)?;
     Ok(p)
 }
@@ -346,119 +456,50 @@ fn top_level(msg: &str) -> String {
     msg.to_string()
 }
 
-/// Writes a parameter set in the schema of `reference-actuator.toml`, every value with its
-/// unit in a comment; `header` lines become leading `#` comments.
-pub fn to_toml(p: &ActuatorParams, header: &[String]) -> String {
-    use std::fmt::Write;
+/// Writes a parameter set in the schema of `reference-actuator.toml` (every key, so that
+/// it reads back to the identical set); `header` lines become leading `#` comments. Numbers
+/// are written in scientific notation with the fewest digits that read back exactly, and
+/// each effect with its unit in a comment (the other keys name their unit).
+pub fn to_toml(p: &ActuatorParams, header: &[String]) -> Result<String, HostError> {
+    let failed =
+        |e: &dyn fmt::Display| HostError::other(format!("cannot write a parameter file: {e}"));
+    let body = toml::to_string(&FileT::new(p)).map_err(|e| failed(&e))?;
+    let mut doc: toml_edit::DocumentMut = body.parse().map_err(|e| failed(&e))?;
+    for (_, item) in doc.iter_mut() {
+        match item {
+            toml_edit::Item::Value(v) => scientific(v),
+            toml_edit::Item::Table(t) => t.iter_mut().for_each(|(_, i)| {
+                if let Some(v) = i.as_value_mut() {
+                    scientific(v);
+                }
+            }),
+            _ => {}
+        }
+    }
+    if let Some(t) = doc.get_mut("effects").and_then(|i| i.as_table_mut()) {
+        for e in Effect::ALL {
+            if let Some(v) = t.get_mut(e.name()).and_then(|i| i.as_value_mut()) {
+                v.decor_mut().set_suffix(format!("   # {}", e.unit()));
+            }
+        }
+    }
     let mut s = String::new();
     for h in header {
-        let _ = writeln!(s, "# {h}");
+        s.push_str("# ");
+        s.push_str(h);
+        s.push('\n');
     }
-    let m = &p.motor;
-    let _ = writeln!(s, "sample_period_s = {:e}   # s\n", p.sample_period_s);
-    let _ = writeln!(s, "[motor]");
-    let _ = writeln!(s, "resistance_ohm = {:e}   # ohm", m.resistance_ohm);
-    let _ = writeln!(s, "inductance_h = {:e}   # H", m.inductance_h);
-    let _ = writeln!(
-        s,
-        "torque_constant_nm_per_a = {:e}   # N*m/A",
-        m.torque_constant_nm_per_a
-    );
-    let _ = writeln!(
-        s,
-        "back_emf_v_s_per_rad = {:e}   # V*s/rad",
-        m.back_emf_v_s_per_rad
-    );
-    let _ = writeln!(s, "tach_v_s_per_rad = {:e}   # V*s/rad", m.tach_v_s_per_rad);
-    let _ = writeln!(s, "inertia_kg_m2 = {:e}   # kg*m^2", m.inertia_kg_m2);
-    let _ = writeln!(
-        s,
-        "coulomb_friction_nm = {:e}   # N*m\n",
-        m.coulomb_friction_nm
-    );
-    let g = &p.gears;
-    let geo = |s: &mut String, t: &ToothGeometry| {
-        let _ = writeln!(
-            s,
-            "gear_pitch_diameter_m = {:e}   # m",
-            t.gear_pitch_diameter_m
-        );
-        let _ = writeln!(s, "face_width_m = {:e}   # m", t.face_width_m);
-        let _ = writeln!(s, "pinion_lewis_factor = {:e}", t.pinion_lewis_factor);
-        let _ = writeln!(s, "gear_lewis_factor = {:e}", t.gear_lewis_factor);
-        let _ = writeln!(
-            s,
-            "pinion_youngs_modulus_pa = {:e}   # Pa",
-            t.pinion_youngs_modulus_pa
-        );
-        let _ = writeln!(
-            s,
-            "gear_youngs_modulus_pa = {:e}   # Pa",
-            t.gear_youngs_modulus_pa
-        );
+    s.push_str(&doc.to_string());
+    Ok(s)
+}
+
+/// A finite float in `{:e}` form (`2.5e-7`, not `0.00000025`); anything else unchanged.
+fn scientific(v: &mut toml_edit::Value) {
+    let Some(x) = v.as_float().filter(|x| x.is_finite()) else {
+        return;
     };
-    let shaft = |s: &mut String, t: &str, sh: &Shaft| {
-        let _ = writeln!(s, "[{t}]");
-        let _ = writeln!(s, "shear_modulus_pa = {:e}   # Pa", sh.shear_modulus_pa);
-        let _ = writeln!(s, "diameter_m = {:e}   # m", sh.diameter_m);
-        let _ = writeln!(s, "length_m = {:e}   # m\n", sh.length_m);
-    };
-    let _ = writeln!(s, "[gear_stage_1]\nratio = {:e}", g.stage1_ratio);
-    match &g.stiffness {
-        Stiffness::Geometry {
-            stage1,
-            shaft1,
-            stage2,
-            shaft2,
-        } => {
-            geo(&mut s, stage1);
-            s.push('\n');
-            shaft(&mut s, "rotating_shaft", shaft1);
-            let _ = writeln!(
-                s,
-                "[gear_stage_2]\nratio = {:e}\nrevolving = {}",
-                g.stage2_ratio, g.revolving
-            );
-            geo(&mut s, stage2);
-            s.push('\n');
-            shaft(&mut s, "fixed_shaft", shaft2);
-        }
-        Stiffness::Measured {
-            k1_nm_per_rad,
-            k2_nm_per_rad,
-        } => {
-            let _ = writeln!(
-                s,
-                "\n[gear_stage_2]\nratio = {:e}\nrevolving = {}\n",
-                g.stage2_ratio, g.revolving
-            );
-            let _ = writeln!(s, "[stiffness]");
-            let _ = writeln!(
-                s,
-                "k1_nm_per_rad = {k1_nm_per_rad:e}   # N*m/rad at the rotating shaft"
-            );
-            let _ = writeln!(
-                s,
-                "k2_nm_per_rad = {k2_nm_per_rad:e}   # N*m/rad at the load\n"
-            );
-        }
+    if let Ok(mut e) = format!("{x:e}").parse::<toml_edit::Value>() {
+        *e.decor_mut() = v.decor().clone();
+        *v = e;
     }
-    let _ = writeln!(s, "[load]");
-    let _ = writeln!(s, "inertia_kg_m2 = {:e}   # kg*m^2", p.load.inertia_kg_m2);
-    let _ = writeln!(
-        s,
-        "coulomb_friction_nm = {:e}   # N*m\n",
-        p.load.coulomb_friction_nm
-    );
-    let _ = writeln!(s, "[backlash]\ntotal_deg = {:e}   # deg\n", p.backlash_deg);
-    let e = &p.effects;
-    let _ = writeln!(s, "[effects]");
-    let _ = writeln!(s, "motor_viscous = {:e}   # N*m*s/rad", e.motor_viscous);
-    let _ = writeln!(s, "load_viscous = {:e}   # N*m*s/rad", e.load_viscous);
-    let _ = writeln!(s, "mesh_damping = {:e}   # N*m*s/rad", e.mesh_damping);
-    let _ = writeln!(s, "hinge_stiffness = {:e}   # N*m/rad", e.hinge_stiffness);
-    let _ = writeln!(s, "input_delay = {:e}   # s", e.input_delay);
-    let _ = writeln!(s, "voltage_limit = {:e}   # V (0 = none)", e.voltage_limit);
-    let _ = writeln!(s, "tach_gain = {:e}   # relative", e.tach_gain);
-    s
 }

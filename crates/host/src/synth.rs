@@ -3,76 +3,18 @@
 //! settings in `# key: value` lines so that a record says how it was made.
 
 use crate::error::HostError;
-use geared_servo::{ActuatorParams, Effects, Plant, PlantState};
+use geared_servo::{ActuatorParams, Effect, Plant, PlantState};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-/// Effect names (INTERFACES.md "Effect names") with their units, in canonical order.
-pub const EFFECTS: [(&str, &str); 7] = [
-    ("motor_viscous", "N*m*s/rad"),
-    ("load_viscous", "N*m*s/rad"),
-    ("mesh_damping", "N*m*s/rad"),
-    ("hinge_stiffness", "N*m/rad"),
-    ("input_delay", "s"),
-    ("voltage_limit", "V"),
-    ("tach_gain", "-"),
-];
-
-/// The unit of effect `name`, if it is one.
-pub fn effect_unit(name: &str) -> Option<&'static str> {
-    EFFECTS.iter().find(|(n, _)| *n == name).map(|(_, u)| *u)
-}
-
-/// The value of effect `name` in `e`.
-pub fn effect_value(e: &Effects, name: &str) -> Option<f64> {
-    Some(match name {
-        "motor_viscous" => e.motor_viscous,
-        "load_viscous" => e.load_viscous,
-        "mesh_damping" => e.mesh_damping,
-        "hinge_stiffness" => e.hinge_stiffness,
-        "input_delay" => e.input_delay,
-        "voltage_limit" => e.voltage_limit,
-        "tach_gain" => e.tach_gain,
-        _ => return None,
-    })
-}
-
-/// Sets effect `name` in `e`; an unknown name is bad input.
-pub fn set_effect(e: &mut Effects, name: &str, value: f64) -> Result<(), HostError> {
-    let slot = match name {
-        "motor_viscous" => &mut e.motor_viscous,
-        "load_viscous" => &mut e.load_viscous,
-        "mesh_damping" => &mut e.mesh_damping,
-        "hinge_stiffness" => &mut e.hinge_stiffness,
-        "input_delay" => &mut e.input_delay,
-        "voltage_limit" => &mut e.voltage_limit,
-        "tach_gain" => &mut e.tach_gain,
-        _ => {
-            let names: Vec<&str> = EFFECTS.iter().map(|(n, _)| *n).collect();
-            return Err(HostError::input(format!(
-                "unknown effect `{name}` (known: {})",
-                names.join(", ")
-            )));
-        }
-    };
-    *slot = value;
-    Ok(())
-}
-
 /// Parses `NAME=VALUE` of `--effect`.
-pub fn parse_effect(arg: &str) -> Result<(String, f64), HostError> {
+pub fn parse_effect(arg: &str) -> Result<(Effect, f64), HostError> {
     let (n, v) = arg
         .split_once('=')
         .ok_or_else(|| HostError::input(format!("--effect `{arg}`: expected NAME=VALUE")))?;
-    let n = n.trim();
-    effect_unit(n).ok_or_else(|| {
-        let names: Vec<&str> = EFFECTS.iter().map(|(n, _)| *n).collect();
-        HostError::input(format!(
-            "--effect `{arg}`: unknown effect `{n}` (known: {})",
-            names.join(", ")
-        ))
-    })?;
+    let effect = Effect::from_name(n.trim())
+        .map_err(|e| HostError::input(format!("--effect `{arg}`: {e}")))?;
     let x: f64 = v
         .trim()
         .parse()
@@ -82,7 +24,7 @@ pub fn parse_effect(arg: &str) -> Result<(String, f64), HostError> {
             "--effect `{arg}`: value is not finite"
         )));
     }
-    Ok((n.to_string(), x))
+    Ok((effect, x))
 }
 
 /// Excitation waveforms.
@@ -396,7 +338,7 @@ mod tests {
         assert!(parse_effect("tach_gain").is_err());
         assert_eq!(
             parse_effect("tach_gain=0.1").unwrap(),
-            ("tach_gain".to_string(), 0.1)
+            (Effect::TachGain, 0.1)
         );
     }
 }
