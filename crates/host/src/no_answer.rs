@@ -21,20 +21,23 @@
 //! 5. **Bounded**: on both sides, within the range, the response leaves the band of two
 //!    standard errors around the extremum (otherwise the response is flat within its
 //!    spread and no frequency stands out).
-//! 6. **Deep enough** (the minima): for the anti-resonance, a zero of `V_t/V_m`, the highest
-//!    simulated value on each side within an octave is at least [`MIN_DEPTH_DB`] above the
-//!    minimum, the
-//!    minimum counted no lower than what the analyser resolves (its absolute agreement,
-//!    [`geared_servo::analyser::ABS_TOL`]) plus two standard errors. A response whose whole
-//!    level sits near that floor (a winding so slow that the tachometer sees almost nothing)
-//!    has no resolvable notch even if the plant's has one. The resonance's dip in |I/V_m| is
-//!    shallow with backlash (0.2–0.5 dB at the softening jump of the reference actuator at
-//!    3–10 V), so there only the resolution applies: the response beside it must stand
-//!    [`MIN_DEPTH_DB`] above the analyser's floor.
+//! 6. **Deep enough** (the minima): within an octave on each side the response rises at
+//!    least [`MIN_DEPTH_DB`] above the bottom. For the anti-resonance, a zero of `V_t/V_m`,
+//!    the bottom is the minimum plus two standard errors, or what the analyser resolves (its
+//!    absolute agreement, [`geared_servo::analyser::ABS_TOL`]) if that is higher: a response
+//!    whose level near the notch sits at that floor (a winding so slow that the tachometer
+//!    sees almost nothing) has no resolvable notch even if the plant has one. The
+//!    resonance's dip in |I/V_m| is shallow with backlash (0.2–0.5 dB at the softening jump
+//!    of the reference actuator at 3–10 V), so its bottom is the analyser's floor alone.
 //!
-//! The design queries build on f_AR: an evaluation with no anti-resonance fails the
-//! bandwidth (there is no notch at or above it), except above the Nyquist frequency, where
-//! the simulation cannot say: then the query has no answer.
+//! The gain peak (a maximum) is held to 1 and 3–5. Model frequencies include the hinge
+//! spring ([`Expectation`]).
+//!
+//! The design queries build on f_AR ([`meets`]): an evaluation with no anti-resonance fails
+//! the bandwidth (there is no notch at or above it), except above the Nyquist frequency,
+//! where the simulation cannot say and the query has no answer. A query also has none when
+//! the bandwidth is reached nowhere or everywhere it may look ([`Cause::NeverReached`],
+//! [`Cause::AlwaysReached`]).
 
 use crate::error::HostError;
 use crate::fr::{Located, Point};
@@ -419,5 +422,52 @@ pub fn add_reason<T>(obj: &mut serde_json::Value, stem: &str, a: &Answer<T>) {
     if let (serde_json::Value::Object(m), Err(na)) = (obj, a) {
         m.insert(format!("{stem}_reason"), na.reason.clone().into());
         m.insert(format!("{stem}_cause"), na.cause.code().into());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use geared_servo::REFERENCE;
+
+    #[test]
+    fn expectation_without_hinge_or_backlash_is_the_closed_form() {
+        let d = REFERENCE.derived().unwrap();
+        let e = Expectation::new(&REFERENCE, 10.0).unwrap();
+        assert!((e.f_ar_hz - d.f_ar_hz).abs() < 1e-9);
+        assert!((e.f_r_hz - d.f_r_hz).abs() < 1e-9);
+        assert_eq!(e.nyquist_hz, 1000.0);
+    }
+
+    #[test]
+    fn a_hinge_spring_raises_the_expected_notch_to_its_zero() {
+        // The zero of Ωm/V is where Z_L + K = 0: J_L ω² = k_eq + k_h (linear.rs).
+        let mut p = REFERENCE;
+        p.effects.hinge_stiffness = 3000.0;
+        let d = p.derived().unwrap();
+        let e = Expectation::new(&p, 10.0).unwrap();
+        let want = ((d.k_eq_nm_per_rad + 3000.0) / p.load.inertia_kg_m2).sqrt() / (2.0 * PI);
+        assert!((e.f_ar_hz - want).abs() < 1e-9);
+        // The poles interlace the zero: the upper one stays above it.
+        assert!(e.f_r_hz > e.f_ar_hz);
+    }
+
+    #[test]
+    fn only_an_anti_resonance_above_nyquist_leaves_a_design_evaluation_undecided() {
+        let na = |cause| {
+            Err(NoAnswer {
+                cause,
+                reason: String::new(),
+            })
+        };
+        assert_eq!(meets(&Ok(101.0), 100.0), Ok(true));
+        assert_eq!(meets(&Ok(99.0), 100.0), Ok(false));
+        for c in Cause::ALL {
+            let m = meets(&na(c), 100.0);
+            assert_eq!(m.is_err(), c == Cause::AboveNyquist, "{c:?}");
+            if c != Cause::AboveNyquist {
+                assert_eq!(m, Ok(false));
+            }
+        }
     }
 }
