@@ -207,7 +207,9 @@ fn scenario_rows() -> Vec<Row> {
 }
 
 fn cli_rows() -> Vec<Row> {
-    let cases: [&[&str]; 10] = [
+    // A valid query without an answer (a bandwidth never reached) is not bad input: it is in
+    // the no-answer catalogue (`crate::no_answer_catalogue`).
+    let cases: [&[&str]; 9] = [
         &["frobnicate"],
         &["simulate", "--input", "in.csv"],
         &["bode", "--vpk", "ten"],
@@ -216,13 +218,6 @@ fn cli_rows() -> Vec<Row> {
         &["bode", "--vpk", "10", "--from", "300", "--to", "10"],
         &["bode", "--vpk", "nan"],
         &["max-backlash", "--bandwidth-hz", "0", "--vpk", "10"],
-        &[
-            "min-voltage",
-            "--bandwidth-hz",
-            "500",
-            "--backlash-deg",
-            "0.05",
-        ],
         &["diagnose", "--data", "missing.csv"],
     ];
     cases

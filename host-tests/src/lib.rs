@@ -3,6 +3,8 @@
 
 #[cfg(feature = "host")]
 pub mod catalogue;
+#[cfg(feature = "host")]
+pub mod no_answer_catalogue;
 pub mod records;
 pub mod reference;
 #[cfg(feature = "host")]

@@ -80,7 +80,6 @@ fn bad_frequency_response_arguments_are_bad_input() {
         &["bode", "--vpk", "10", "--from", "300", "--to", "10"],
         &["bode", "--vpk", "10", "--to", "1500"],
         &["resonances", "--vpk", "10", "--backlash-deg=-0.1"],
-        &["max-backlash", "--bandwidth-hz", "500", "--vpk", "10"],
         &[
             "min-voltage",
             "--bandwidth-hz",

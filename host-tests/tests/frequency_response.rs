@@ -7,7 +7,8 @@
 
 use geared_servo::describing;
 use geared_servo::{ActuatorParams, LinearModel, REFERENCE};
-use geared_servo_host::fr::{self, Bench, LocateOptions, Resonances, SweepOptions};
+use geared_servo_host::fr::{self, Bench, LocateOptions, Located, Resonances, SweepOptions};
+use geared_servo_host::no_answer::Answer;
 use std::sync::OnceLock;
 
 #[path = "../../examples/shared/fr_smoke.rs"]
@@ -18,6 +19,16 @@ fn opts(vpk: f64) -> SweepOptions {
         vpk,
         ..SweepOptions::default()
     }
+}
+
+/// The frequency of a feature these claims need resolved (they fail loudly otherwise).
+fn hz(a: &Answer<Located>) -> f64 {
+    a.as_ref().unwrap().freq_hz
+}
+
+/// [`hz`] of a feature that was searched for.
+fn hz_of(a: &Option<Answer<Located>>) -> f64 {
+    hz(a.as_ref().unwrap())
 }
 
 fn locate(p: &ActuatorParams, vpk: f64) -> Resonances {
@@ -80,9 +91,9 @@ fn linear_located_anti_resonance_and_resonance_within_0_05_hz_of_closed_form() {
     let p = REFERENCE.without_friction();
     let d = p.derived().unwrap();
     let r = locate(&p, 10.0);
-    let ar = r.anti_resonance.freq_hz;
-    let fr_ = r.resonance.unwrap().freq_hz;
-    let pk = r.gain_peak.unwrap().freq_hz;
+    let ar = hz(&r.anti_resonance);
+    let fr_ = hz_of(&r.resonance);
+    let pk = hz_of(&r.gain_peak);
     assert!((ar - d.f_ar_hz).abs() < 0.05, "f_AR {ar} vs {}", d.f_ar_hz);
     assert!((fr_ - d.f_r_hz).abs() < 0.05, "f_R {fr_} vs {}", d.f_r_hz);
     let lm = LinearModel::new(&p).unwrap();
@@ -100,10 +111,12 @@ fn reference_reproduces_paper_design_points() {
     // Tolerances from the issue: ±0.005 deg and ±0.010 deg.
     let b10 = fr::max_backlash(&REFERENCE, 100.0, opts(10.0), 0.001)
         .unwrap()
-        .value;
+        .value
+        .unwrap();
     let b30 = fr::max_backlash(&REFERENCE, 100.0, opts(30.0), 0.001)
         .unwrap()
-        .value;
+        .value
+        .unwrap();
     assert!((b10 - 0.030).abs() <= 0.005, "10 V: {b10} deg");
     assert!((b30 - 0.080).abs() <= 0.010, "30 V: {b30} deg");
 }
@@ -115,10 +128,12 @@ fn min_voltage_is_consistent_with_max_backlash() {
     // not much lower (a 10 % lower voltage must not suffice).
     let b30 = fr::max_backlash(&REFERENCE, 100.0, opts(30.0), 0.001)
         .unwrap()
-        .value;
+        .value
+        .unwrap();
     let v = fr::min_voltage(&REFERENCE.with_backlash_deg(b30), 100.0, opts(10.0), 0.05)
         .unwrap()
-        .value;
+        .value
+        .unwrap();
     assert!(v <= 30.05 && v > 27.0, "{v} V");
 }
 
@@ -141,21 +156,21 @@ fn at_0_08_deg_f_ar_and_f_r_rise_with_voltage_towards_backlash_free_values() {
     for w in rows.windows(2) {
         let (a, b) = (&w[0].1, &w[1].1);
         assert!(
-            b.anti_resonance.freq_hz > a.anti_resonance.freq_hz,
+            hz(&b.anti_resonance) > hz(&a.anti_resonance),
             "f_AR {} V -> {} V",
             w[0].0,
             w[1].0
         );
-        let (ra, rb) = (a.resonance.unwrap(), b.resonance.unwrap());
-        assert!(rb.freq_hz > ra.freq_hz, "f_R {} V -> {} V", w[0].0, w[1].0);
+        let (ra, rb) = (hz_of(&a.resonance), hz_of(&b.resonance));
+        assert!(rb > ra, "f_R {} V -> {} V", w[0].0, w[1].0);
     }
     // The limit: at 1000 V f_AR is within 1 % of eq. 17a, f_R within 0.1 % of 17b, and the
     // remaining f_AR deficit closes as 1/V (deficit × V at 300 and 1000 V within 25 %).
     let (_, r300, _) = &rows[5];
     let (_, r1000, _) = &rows[6];
-    let def = |r: &Resonances| d.f_ar_hz - r.anti_resonance.freq_hz;
+    let def = |r: &Resonances| d.f_ar_hz - hz(&r.anti_resonance);
     assert!(def(r1000) > 0.0 && def(r1000) < 0.01 * d.f_ar_hz);
-    assert!((r1000.resonance.unwrap().freq_hz - d.f_r_hz).abs() < 0.001 * d.f_r_hz);
+    assert!((hz_of(&r1000.resonance) - d.f_r_hz).abs() < 0.001 * d.f_r_hz);
     let ratio = def(r300) * 300.0 / (def(r1000) * 1000.0);
     assert!((ratio - 1.0).abs() < 0.25, "1/V law: {ratio}");
 }
@@ -173,7 +188,7 @@ fn describing_function_predicts_f_ar_where_twist_amplitude_is_large() {
     for (v, r, df) in fig4() {
         let ratio = df.anti_resonance.twist_amplitude_rad / delta;
         if ratio >= 3.0 {
-            let (sim, pred) = (r.anti_resonance.freq_hz, df.anti_resonance.freq_hz);
+            let (sim, pred) = (hz(&r.anti_resonance), df.anti_resonance.freq_hz);
             assert!(
                 (sim - pred).abs() < 0.005 * sim,
                 "{v} V: sim {sim} DF {pred}"
@@ -196,11 +211,11 @@ fn describing_function_departs_near_the_gap_and_at_the_resonance() {
         .delta_rad;
     for (v, r, df) in fig4().iter().take(2) {
         assert!(df.anti_resonance.twist_amplitude_rad / delta < 2.0);
-        let (sim, pred) = (r.anti_resonance.freq_hz, df.anti_resonance.freq_hz);
+        let (sim, pred) = (hz(&r.anti_resonance), df.anti_resonance.freq_hz);
         assert!(sim - pred > 0.03 * sim, "{v} V: sim {sim} DF {pred}");
     }
     let (_, r10, df10) = &fig4()[1];
-    let gap = df10.resonance.freq_hz - r10.resonance.unwrap().freq_hz;
+    let gap = df10.resonance.freq_hz - hz_of(&r10.resonance);
     assert!(gap > 10.0, "DF f_R minus simulated at 10 V: {gap} Hz");
 }
 
@@ -217,11 +232,7 @@ fn f_ar_falls_with_backlash_faster_at_10_v_than_at_17_9_v() {
                     resonance: false,
                     ..LocateOptions::default()
                 };
-                fr::locate(&bench, &lo, &())
-                    .unwrap()
-                    .0
-                    .anti_resonance
-                    .freq_hz
+                hz(&fr::locate(&bench, &lo, &()).unwrap().0.anti_resonance)
             })
             .collect()
     };
@@ -253,8 +264,8 @@ fn without_backlash_f_ar_and_f_r_do_not_depend_on_voltage() {
         let v: Vec<f64> = rs.iter().map(f).collect();
         v.iter().cloned().fold(f64::MIN, f64::max) - v.iter().cloned().fold(f64::MAX, f64::min)
     };
-    assert!(span(&|r| r.anti_resonance.freq_hz) < 0.1);
-    assert!(span(&|r| r.resonance.unwrap().freq_hz) < 0.1);
+    assert!(span(&|r| hz(&r.anti_resonance)) < 0.1);
+    assert!(span(&|r| hz_of(&r.resonance)) < 0.1);
 }
 
 #[test]
@@ -307,11 +318,7 @@ fn zoh_hold_measures_the_sampled_system_whose_notch_is_about_1_hz_higher() {
         resonance: false,
         ..LocateOptions::default()
     };
-    let f = fr::locate(&bench, &lo, &())
-        .unwrap()
-        .0
-        .anti_resonance
-        .freq_hz;
+    let f = hz(&fr::locate(&bench, &lo, &()).unwrap().0.anti_resonance);
     assert!((f - 128.607).abs() < 0.05, "ZOH notch {f}");
 }
 

@@ -9,6 +9,7 @@ use geared_servo::describing;
 use geared_servo_host::error::HostError;
 use geared_servo_host::fr::spread_db;
 use geared_servo_host::fr::{self, Bench, LocateOptions, Located, SweepOptions};
+use geared_servo_host::no_answer::{add_reason, Answer};
 use geared_servo_host::record::write_file;
 use serde_json::{json, Value};
 use std::path::PathBuf;
@@ -86,6 +87,10 @@ pub fn bode(
     let pb = progress(freqs.len() as u64, "bode");
     let pts = bench.sweep(&freqs, &pb)?;
     pb.finish();
+    let notch: Answer<()> = match fr::unresolved_notch(&bench, &pts)? {
+        Some(na) => Err(na),
+        None => Ok(()),
+    };
     if let Some(path) = csv_out {
         let mut s = String::from("freq_hz,gain_db,phase_deg,gain_spread_db,settled\n");
         for q in &pts {
@@ -107,8 +112,9 @@ pub fn bode(
                    "phase_deg": q.tach.phase_deg(), "settled": q.settled})
         })
         .collect();
-    let json = json!({"params": name, "vpk": vpk, "backlash_deg": p.backlash_deg,
+    let mut json = json!({"params": name, "vpk": vpk, "backlash_deg": p.backlash_deg,
                       "points": rows});
+    add_reason(&mut json, "f_ar", &notch);
     let mut text = format!(
         "V_t/V_m of {name} at {vpk} V_pk, backlash {} deg ({} points)\n freq_hz   gain_db  phase_deg\n",
         p.backlash_deg,
@@ -126,18 +132,28 @@ pub fn bode(
     } else if let Some(path) = csv_out {
         text.push_str(&format!("wrote {}\n", path.display()));
     }
+    if let Err(na) = &notch {
+        text.push_str(&format!("notice: {}\n", na.reason));
+    }
     Ok(Report {
         json,
         text: text.trim_end().to_string(),
     })
 }
 
-fn located_json(l: &Option<Located>) -> Value {
+/// A located feature as JSON; `at_grid_edge` stays for scripts that read it and is always
+/// false now (an extremum at the grid's edge is no answer, null).
+fn located_json(l: Option<&Located>) -> Value {
     match l {
         Some(l) => json!({"freq_hz": l.freq_hz, "band_hz": [l.band_hz.0, l.band_hz.1],
-                          "settled": l.settled, "at_grid_edge": l.at_edge}),
+                          "settled": l.settled, "at_grid_edge": false}),
         None => Value::Null,
     }
+}
+
+/// The resolved feature of a search, if any.
+fn found(a: Option<&Answer<Located>>) -> Option<&Located> {
+    a.and_then(|a| a.as_ref().ok())
 }
 
 /// `resonances`: f_AR and f_R located on the simulated response, with the DF prediction.
@@ -161,14 +177,18 @@ pub fn resonances(
         .map_err(|e| HostError::input(format!("key `{}` {}", e.field(), e.reason())))?;
     let df = describing::predict(&p, vpk)
         .map_err(|e| HostError::input(format!("key `{}` {}", e.field(), e.reason())))?;
-    let ar = r.anti_resonance;
-    let json = json!({
+    let (ar, res, peak) = (
+        found(Some(&r.anti_resonance)),
+        found(r.resonance.as_ref()),
+        found(r.gain_peak.as_ref()),
+    );
+    let mut json = json!({
         "params": name, "vpk": vpk, "backlash_deg": p.backlash_deg,
-        "f_ar_hz": ar.freq_hz, "f_r_hz": r.resonance.map(|x| x.freq_hz),
-        "f_gain_peak_hz": r.gain_peak.map(|x| x.freq_hz),
-        "anti_resonance": located_json(&Some(ar)),
-        "resonance": located_json(&r.resonance),
-        "gain_peak": located_json(&r.gain_peak),
+        "f_ar_hz": ar.map(|x| x.freq_hz), "f_r_hz": res.map(|x| x.freq_hz),
+        "f_gain_peak_hz": peak.map(|x| x.freq_hz),
+        "anti_resonance": located_json(ar),
+        "resonance": located_json(res),
+        "gain_peak": located_json(peak),
         "closed_form": {"f_ar_hz": d.f_ar_hz, "f_r_hz": d.f_r_hz},
         "describing_function": {
             "f_ar_hz": df.anti_resonance.freq_hz, "f_r_hz": df.resonance.freq_hz,
@@ -179,33 +199,39 @@ pub fn resonances(
         },
         "evaluations": r.evaluations,
     });
-    let fmt = |l: &Option<Located>| match l {
-        Some(l) => format!(
-            "{:9.3} Hz  (band {:.3}..{:.3} Hz{}{})",
+    add_reason(&mut json, "f_ar", &r.anti_resonance);
+    for (stem, a) in [("f_r", &r.resonance), ("f_gain_peak", &r.gain_peak)] {
+        if let Some(a) = a {
+            add_reason(&mut json, stem, a);
+        }
+    }
+    let fmt = |l: Option<&Answer<Located>>| match l {
+        Some(Ok(l)) => format!(
+            "{:9.3} Hz  (band {:.3}..{:.3} Hz{})",
             l.freq_hz,
             l.band_hz.0,
             l.band_hz.1,
             if l.settled { "" } else { ", not settled" },
-            if l.at_edge {
-                ", AT THE GRID EDGE: no feature in range"
-            } else {
-                ""
-            }
         ),
-        None => "not found".to_string(),
+        Some(Err(na)) => format!("none: {}", na.reason),
+        None => "not searched".to_string(),
     };
     let text = format!(
         "{name} at {vpk} V_pk, backlash {} deg\n\
          anti-resonance f_AR  {}\n\
-         resonance f_R        {}   (minimum of |I/V_m|: the pole of wm/T_m)\n\
+         resonance f_R        {}\n\
          gain peak            {}\n\
          closed form          f_AR {:.3} Hz, f_R {:.3} Hz (no backlash, eqs. 17a/b)\n\
          describing function  f_AR {:.3} Hz (N = {:.4}), f_R {:.3} Hz (N = {:.4})\n\
          {} points simulated",
         p.backlash_deg,
-        fmt(&Some(ar)),
-        fmt(&r.resonance),
-        fmt(&r.gain_peak),
+        fmt(Some(&r.anti_resonance)),
+        match fmt(r.resonance.as_ref()) {
+            // What f_R is, beside a value (a reason is sentence enough).
+            f if res.is_some() => f + "   (minimum of |I/V_m|: the pole of wm/T_m)",
+            f => f,
+        },
+        fmt(r.gain_peak.as_ref()),
         d.f_ar_hz,
         d.f_r_hz,
         df.anti_resonance.freq_hz,
@@ -226,15 +252,23 @@ pub fn max_backlash(
 ) -> Result<Report, HostError> {
     let (p, name) = load_params(cli, None)?;
     let d = fr::max_backlash(&p, bandwidth, m.options(vpk)?, 0.001)?;
-    let json = json!({"params": name, "bandwidth_hz": bandwidth, "vpk": vpk,
-        "max_backlash_deg": d.value, "tolerance_deg": 0.001,
-        "trace": d.trace.iter().map(|(b, f)| json!({"backlash_deg": b, "f_ar_hz": f})).collect::<Vec<_>>()});
-    let text = format!(
-        "{name}: largest total backlash with simulated f_AR >= {bandwidth} Hz at {vpk} V_pk: \
-         {:.3} deg (bisection to 0.001 deg, {} evaluations)",
-        d.value,
-        d.trace.len()
-    );
+    let mut json = json!({"params": name, "bandwidth_hz": bandwidth, "vpk": vpk,
+        "max_backlash_deg": d.value.as_ref().ok(), "tolerance_deg": 0.001,
+        "trace": trace_json(&d, "backlash_deg")});
+    add_reason(&mut json, "max_backlash", &d.value);
+    let text = match &d.value {
+        Ok(b) => format!(
+            "{name}: largest total backlash with simulated f_AR >= {bandwidth} Hz at {vpk} V_pk: \
+             {b:.3} deg (bisection to 0.001 deg, {} evaluations)",
+            d.trace.len()
+        ),
+        Err(na) => format!(
+            "{name}: no largest total backlash with simulated f_AR >= {bandwidth} Hz at {vpk} V_pk: \
+             {} (evaluations: {})",
+            na.reason,
+            d.trace.len()
+        ),
+    };
     Ok(Report { json, text })
 }
 
@@ -247,14 +281,30 @@ pub fn min_voltage(
 ) -> Result<Report, HostError> {
     let (p, name) = load_params(cli, Some(backlash))?;
     let d = fr::min_voltage(&p, bandwidth, m.options(10.0)?, 0.05)?;
-    let json = json!({"params": name, "bandwidth_hz": bandwidth, "backlash_deg": backlash,
-        "min_vpk": d.value, "tolerance_v": 0.05,
-        "trace": d.trace.iter().map(|(v, f)| json!({"vpk": v, "f_ar_hz": f})).collect::<Vec<_>>()});
-    let text = format!(
-        "{name}: smallest voltage amplitude with simulated f_AR >= {bandwidth} Hz at \
-         {backlash} deg: {:.2} V_pk (bisection to 0.05 V, {} evaluations)",
-        d.value,
-        d.trace.len()
-    );
+    let mut json = json!({"params": name, "bandwidth_hz": bandwidth, "backlash_deg": backlash,
+        "min_vpk": d.value.as_ref().ok(), "tolerance_v": 0.05,
+        "trace": trace_json(&d, "vpk")});
+    add_reason(&mut json, "min_vpk", &d.value);
+    let text = match &d.value {
+        Ok(v) => format!(
+            "{name}: smallest voltage amplitude with simulated f_AR >= {bandwidth} Hz at \
+             {backlash} deg: {v:.2} V_pk (bisection to 0.05 V, {} evaluations)",
+            d.trace.len()
+        ),
+        Err(na) => format!(
+            "{name}: no smallest voltage amplitude with simulated f_AR >= {bandwidth} Hz at \
+             {backlash} deg: {} (evaluations: {})",
+            na.reason,
+            d.trace.len()
+        ),
+    };
     Ok(Report { json, text })
+}
+
+/// The evaluations of a design query: the argument under `arg`, f_AR (null where none).
+fn trace_json(d: &fr::Design, arg: &str) -> Vec<Value> {
+    d.trace
+        .iter()
+        .map(|(x, f)| json!({arg: x, "f_ar_hz": f.as_ref().ok()}))
+        .collect()
 }

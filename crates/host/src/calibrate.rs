@@ -35,13 +35,9 @@ pub struct Data {
     pub norm: f64,
 }
 
-/// Output columns the fit can use, in order of preference.
-pub const FIT_OUTPUTS: [&str; 4] = [
-    "tach_voltage_v",
-    "motor_speed_rad_s",
-    "load_angle_deg",
-    "current_a",
-];
+/// Output columns the fit can use, in order of preference: every measured output
+/// ([`crate::record::OUTPUT_COLUMNS`]).
+pub const FIT_OUTPUTS: [&str; 5] = crate::record::OUTPUT_COLUMNS;
 
 impl Data {
     /// Prepares `rec`: picks the first output of [`FIT_OUTPUTS`] it has. When the first
@@ -117,6 +113,7 @@ pub fn simulate(p: &ActuatorParams, d: &Data) -> Option<Trace> {
         let y = match d.output.as_str() {
             "motor_speed_rad_s" => o.motor_speed_rad_s,
             "load_angle_deg" => o.load_angle_deg(),
+            "load_speed_rad_s" => o.load_speed_rad_s,
             "current_a" => o.current_a,
             _ => o.tach_voltage_v,
         };

@@ -77,7 +77,7 @@ pub fn time_series(
 fn unit_of(output: &str) -> &'static str {
     match output {
         "tach_voltage_v" => "V",
-        "motor_speed_rad_s" => "rad/s",
+        "motor_speed_rad_s" | "load_speed_rad_s" => "rad/s",
         "load_angle_deg" => "deg",
         "current_a" => "A",
         _ => "",

@@ -2,8 +2,12 @@
 //! the anti-resonance and the resonance with sub-grid refinement, and the design queries
 //! `max-backlash` / `min-voltage`. Every simulated point runs the `no_std`
 //! [`geared_servo::analyser::measure`], the same code the firmware example runs on target.
+//! A located extremum is reported only when it is resolved ([`crate::no_answer`]); otherwise
+//! the answer is the reason there is none.
 
+pub use crate::design::{f_ar, f_ar_top_hz, max_backlash, min_voltage, Design};
 use crate::error::HostError;
+use crate::no_answer::{self, Answer, Cause, Expectation, Extremum, Feature, NoAnswer};
 use crate::progress::Progress;
 use geared_servo::analyser::{self, Harmonic, Hold, SweepSettings};
 use geared_servo::describing;
@@ -195,7 +199,8 @@ pub fn grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>, HostError> {
     Ok((0..=n).map(|i| from + i as f64 * step).collect())
 }
 
-/// One located frequency with its uncertainty.
+/// One located frequency with its uncertainty: a resolved feature (an extremum that is not
+/// is a [`NoAnswer`] instead).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Located {
     /// Best estimate, Hz.
@@ -208,22 +213,21 @@ pub struct Located {
     pub value: f64,
     /// All the points used settled.
     pub settled: bool,
-    /// The extremum sat at an end of the coarse grid: no feature found inside the range
-    /// (e.g. friction-dominated responses at a few volts, which have no notch).
-    pub at_edge: bool,
 }
 
 /// Where the anti-resonance and the resonance are on a simulated response.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Resonances {
     /// Anti-resonance: minimum of |V_t/V_m| (eq. 17a in the linear case).
-    pub anti_resonance: Located,
-    /// Resonance of `Ωm/T_m`: minimum of |I/V_m| above the anti-resonance (eq. 17b in the
-    /// linear case: the back-EMF cancels the voltage where `Ωm/T_m` has its pole).
-    pub resonance: Option<Located>,
-    /// Peak of |V_t/V_m| above the anti-resonance (back-EMF damping puts it a little above
-    /// 17b: 205.80 vs 205.72 Hz for the reference actuator).
-    pub gain_peak: Option<Located>,
+    pub anti_resonance: Answer<Located>,
+    /// Resonance of `Ωm/T_m`: minimum of |I/V_m| above the anti-resonance's grid point
+    /// (eq. 17b in the linear case: the back-EMF cancels the voltage where `Ωm/T_m` has its
+    /// pole). `None` when not searched ([`LocateOptions::resonance`] false).
+    pub resonance: Option<Answer<Located>>,
+    /// Peak of |V_t/V_m| above the anti-resonance's grid point (back-EMF damping puts it a
+    /// little above 17b: 205.80 vs 205.72 Hz for the reference actuator). `None` when not
+    /// searched.
+    pub gain_peak: Option<Answer<Located>>,
     /// Points simulated.
     pub evaluations: usize,
 }
@@ -293,23 +297,32 @@ fn golden(
     Ok(())
 }
 
-/// Refines the extremum of `value` (minimised) around grid index `i` and summarises it.
+/// A refined extremum before it is judged.
+struct Refined {
+    located: Located,
+    evaluations: usize,
+    band_open: bool,
+    std_error: f64,
+}
+
+/// Refines the extremum of `value` (minimised) around grid index `i` on re-simulated points
+/// of `bench` (without a bench: takes the grid as it is) and summarises it.
 fn refine(
-    bench: &Bench,
+    bench: Option<&Bench>,
     coarse: &[Point],
     i: usize,
     tol: f64,
     value: &dyn Fn(&Point) -> f64,
     spread: &dyn Fn(&Point) -> f64,
     lo_limit: f64,
-) -> Result<(Located, usize), HostError> {
+) -> Result<Refined, HostError> {
     let at = |j: usize| coarse.get(j).map(|p| p.freq_hz);
     let f0 = at(i).unwrap_or(lo_limit);
     let a = at(i.wrapping_sub(1)).unwrap_or(f0).max(lo_limit);
     let b = at(i + 1).unwrap_or(f0);
     let mut seen: Vec<Point> = coarse.to_vec();
     let before = seen.len();
-    if b > a {
+    if let (Some(bench), true) = (bench, b > a) {
         golden(bench, a, b, tol, value, &mut seen)?;
     }
     let evaluations = seen.len() - before;
@@ -340,16 +353,23 @@ fn refine(
         band.0 = p.freq_hz;
         settled &= p.settled;
     }
-    Ok((
-        Located {
+    // The band reaching the first or last point searched: the response never rose clear of
+    // the extremum on that side.
+    let ends = (
+        pts.first().map_or(band.0, |p| p.freq_hz),
+        pts.last().map_or(band.1, |p| p.freq_hz),
+    );
+    Ok(Refined {
+        located: Located {
             freq_hz: best.freq_hz,
             band_hz: band,
             value: v0,
             settled,
-            at_edge: i == 0 || i + 1 >= coarse.len(),
         },
         evaluations,
-    ))
+        band_open: band.0 <= ends.0 || band.1 >= ends.1,
+        std_error: s0,
+    })
 }
 
 fn argmin_from(coarse: &[Point], start: usize, value: &dyn Fn(&Point) -> f64) -> Option<usize> {
@@ -362,48 +382,127 @@ fn argmin_from(coarse: &[Point], start: usize, value: &dyn Fn(&Point) -> f64) ->
 }
 
 /// Locates the anti-resonance (and optionally the resonance and the gain peak) of `bench`:
-/// coarse parallel sweep, then golden-section refinement on re-simulated points. Returns the
-/// coarse sweep too.
+/// coarse parallel sweep, then golden-section refinement on re-simulated points, then the
+/// judgement of [`crate::no_answer`]. Returns the coarse sweep too (empty when the model puts
+/// every feature above the Nyquist frequency: nothing is simulated then).
 pub fn locate(
     bench: &Bench,
     lo: &LocateOptions,
     progress: &dyn Progress,
 ) -> Result<(Resonances, Vec<Point>), HostError> {
     let freqs = grid(lo.from_hz, lo.to_hz, lo.step_hz)?;
+    let expect = Expectation::new(&bench.params, bench.opts.vpk)?;
+    let range = (lo.from_hz, lo.to_hz);
+    let prior_ar = expect.rules_out(Feature::AntiResonance, range);
+    let prior_r = expect.rules_out(Feature::Resonance, range);
+    let prior_peak = expect.rules_out(Feature::GainPeak, range);
+    // f_R lies above f_AR: with the anti-resonance above Nyquist there is nothing to simulate.
+    if let (Some(ar), Some(r), Some(peak)) = (&prior_ar, &prior_r, &prior_peak) {
+        if ar.cause == Cause::AboveNyquist {
+            return Ok((
+                Resonances {
+                    anti_resonance: Err(ar.clone()),
+                    resonance: lo.resonance.then(|| Err(r.clone())),
+                    gain_peak: lo.resonance.then(|| Err(peak.clone())),
+                    evaluations: 0,
+                },
+                Vec::new(),
+            ));
+        }
+    }
     let coarse = bench.sweep(&freqs, progress)?;
+    let floor = bench.opts.settings.abs_tol;
     let gain = |p: &Point| p.gain();
     let gain_spread = |p: &Point| p.tach.spread / f64::from(p.blocks.max(1)).sqrt();
     let i_ar = argmin_from(&coarse, 0, &gain).ok_or_else(|| HostError::input("empty grid"))?;
-    let (ar, mut evals) = refine(
-        bench,
-        &coarse,
-        i_ar,
-        lo.tol_hz,
-        &gain,
-        &gain_spread,
-        lo.from_hz,
-    )?;
-    evals += coarse.len();
+    let mut evals = coarse.len();
+    let judged =
+        |feature, start: usize, index: usize, r: &Refined, value: &dyn Fn(&Point) -> f64, floor| {
+            let x = Extremum {
+                feature,
+                range,
+                coarse: &coarse,
+                start,
+                index,
+                located: r.located,
+                band_open: r.band_open,
+                std_error: r.std_error,
+                value,
+                floor,
+            };
+            match no_answer::judge(&x, &expect) {
+                Some(na) => Err(na),
+                None => Ok(r.located),
+            }
+        };
+    let (anti_resonance, ar_hz) = match prior_ar {
+        Some(na) => (Err(na), coarse.get(i_ar).map_or(lo.from_hz, |p| p.freq_hz)),
+        None => {
+            let r = refine(
+                Some(bench),
+                &coarse,
+                i_ar,
+                lo.tol_hz,
+                &gain,
+                &gain_spread,
+                lo.from_hz,
+            )?;
+            evals += r.evaluations;
+            let floor = floor.first().copied().unwrap_or(0.0);
+            (
+                judged(Feature::AntiResonance, 0, i_ar, &r, &gain, floor),
+                r.located.freq_hz,
+            )
+        }
+    };
     let (mut resonance, mut gain_peak) = (None, None);
-    if lo.resonance && i_ar + 2 < coarse.len() {
+    if lo.resonance {
+        let none_above = |feature| {
+            Err(NoAnswer {
+                cause: Cause::AtRangeEdge,
+                reason: format!(
+                    "no resolvable {} in {}–{} Hz: no simulated frequency above the lowest |V_t/V_m|",
+                    if feature == Feature::Resonance { "resonance" } else { "gain peak" },
+                    no_answer::hz(range.0),
+                    no_answer::hz(range.1)
+                ),
+            })
+        };
         let cur = |p: &Point| p.current_gain();
         let cur_spread = |p: &Point| p.current.spread / f64::from(p.blocks.max(1)).sqrt();
-        if let Some(i) = argmin_from(&coarse, i_ar + 1, &cur) {
-            let (r, e) = refine(bench, &coarse, i, lo.tol_hz, &cur, &cur_spread, ar.freq_hz)?;
-            evals += e;
-            resonance = Some(r);
-        }
+        resonance = Some(match (&prior_r, argmin_from(&coarse, i_ar + 1, &cur)) {
+            (Some(na), _) => Err(na.clone()),
+            (None, Some(i)) if i_ar + 2 < coarse.len() => {
+                let r = refine(Some(bench), &coarse, i, lo.tol_hz, &cur, &cur_spread, ar_hz)?;
+                evals += r.evaluations;
+                let floor = floor.get(1).copied().unwrap_or(0.0);
+                judged(Feature::Resonance, i_ar + 1, i, &r, &cur, floor)
+            }
+            _ => none_above(Feature::Resonance),
+        });
         let neg = |p: &Point| -p.gain();
-        if let Some(i) = argmin_from(&coarse, i_ar + 1, &neg) {
-            let (mut r, e) = refine(bench, &coarse, i, lo.tol_hz, &neg, &gain_spread, ar.freq_hz)?;
-            r.value = -r.value;
-            evals += e;
-            gain_peak = Some(r);
-        }
+        gain_peak = Some(match (&prior_peak, argmin_from(&coarse, i_ar + 1, &neg)) {
+            (Some(na), _) => Err(na.clone()),
+            (None, Some(i)) if i_ar + 2 < coarse.len() => {
+                let mut r = refine(
+                    Some(bench),
+                    &coarse,
+                    i,
+                    lo.tol_hz,
+                    &neg,
+                    &gain_spread,
+                    ar_hz,
+                )?;
+                r.located.value = -r.located.value;
+                evals += r.evaluations;
+                judged(Feature::GainPeak, i_ar + 1, i, &r, &gain, 0.0)
+            }
+            _ => none_above(Feature::GainPeak),
+        });
     }
     Ok((
         Resonances {
-            anti_resonance: ar,
+            anti_resonance,
             resonance,
             gain_peak,
             evaluations: evals,
@@ -412,124 +511,41 @@ pub fn locate(
     ))
 }
 
-/// Simulated f_AR of `params` at `vpk`, Hz (coarse grid up to a little above the
-/// backlash-free f_AR, then refinement): what the design queries bisect on. NaN when the
-/// response has no notch in that range (it then fails every bandwidth).
-pub fn f_ar(params: &ActuatorParams, opts: SweepOptions, tol_hz: f64) -> Result<f64, HostError> {
-    let bench = Bench::new(params, opts)?;
-    let f0 = params.derived().map_err(param_err)?.f_ar_hz;
-    let lo = LocateOptions {
-        from_hz: 10.0,
-        to_hz: (f0 * 1.15).max(20.0),
-        step_hz: 4.0,
-        tol_hz,
-        resonance: false,
+/// Why the grid `pts` (as `bode` simulates it, ascending frequencies) has no anti-resonance
+/// although one might be expected there: `Some` when the model rules the anti-resonance out
+/// (above the Nyquist frequency, load not driven), or when it predicts one within the grid's
+/// range and the grid does not resolve it ([`no_answer::judge`], without refinement).
+pub fn unresolved_notch(bench: &Bench, pts: &[Point]) -> Result<Option<NoAnswer>, HostError> {
+    let range = (
+        pts.first().map_or(0.0, |p| p.freq_hz),
+        pts.last().map_or(0.0, |p| p.freq_hz),
+    );
+    let expect = Expectation::new(&bench.params, bench.opts.vpk)?;
+    if let Some(na) = expect.rules_out(Feature::AntiResonance, range) {
+        return Ok(Some(na));
+    }
+    if expect.f_ar_hz < range.0 || expect.f_ar_hz > range.1 {
+        return Ok(None);
+    }
+    let gain = |p: &Point| p.gain();
+    let gain_spread = |p: &Point| p.tach.spread / f64::from(p.blocks.max(1)).sqrt();
+    let Some(i) = argmin_from(pts, 0, &gain) else {
+        return Ok(None);
     };
-    let ar = locate(&bench, &lo, &())?.0.anti_resonance;
-    Ok(if ar.at_edge { f64::NAN } else { ar.freq_hz })
-}
-
-/// Result of a bisection: the answer and the points evaluated on the way.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Design {
-    /// The answer (deg for max-backlash, V for min-voltage).
-    pub value: f64,
-    /// (argument, simulated f_AR in Hz) of every evaluation, in order.
-    pub trace: Vec<(f64, f64)>,
-}
-
-/// Largest total backlash (deg) whose simulated f_AR at `vpk` is still ≥ `bandwidth_hz`, to
-/// `tol_deg`. Brackets by doubling from 0.01°, then bisects.
-pub fn max_backlash(
-    params: &ActuatorParams,
-    bandwidth_hz: f64,
-    opts: SweepOptions,
-    tol_deg: f64,
-) -> Result<Design, HostError> {
-    check_bandwidth(bandwidth_hz)?;
-    let mut trace = Vec::new();
-    let fa = |b: f64, trace: &mut Vec<(f64, f64)>| -> Result<f64, HostError> {
-        let f = f_ar(&params.with_backlash_deg(b), opts, 0.002)?;
-        trace.push((b, f));
-        Ok(f)
+    let r = refine(None, pts, i, 0.0, &gain, &gain_spread, range.0)?;
+    let x = Extremum {
+        feature: Feature::AntiResonance,
+        range,
+        coarse: pts,
+        start: 0,
+        index: i,
+        located: r.located,
+        band_open: r.band_open,
+        std_error: r.std_error,
+        value: &gain,
+        floor: bench.opts.settings.abs_tol.first().copied().unwrap_or(0.0),
     };
-    if !meets(fa(0.0, &mut trace)?, bandwidth_hz) {
-        return Err(HostError::input(format!(
-            "even without backlash the simulated f_AR is below {bandwidth_hz} Hz"
-        )));
-    }
-    let (mut lo, mut hi) = (0.0, 0.01);
-    while fa(hi, &mut trace)? >= bandwidth_hz {
-        lo = hi;
-        hi *= 2.0;
-        if hi > geared_servo::params::MAX_BACKLASH_DEG {
-            return Err(HostError::input(format!(
-                "f_AR stays above {bandwidth_hz} Hz up to {} deg of backlash",
-                geared_servo::params::MAX_BACKLASH_DEG
-            )));
-        }
-    }
-    while hi - lo > tol_deg {
-        let mid = 0.5 * (lo + hi);
-        if fa(mid, &mut trace)? >= bandwidth_hz {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    Ok(Design { value: lo, trace })
-}
-
-/// Smallest voltage amplitude (V) whose simulated f_AR at the parameters' backlash is
-/// ≥ `bandwidth_hz`, to `tol_v`. Brackets by doubling from 1 V (up to 10 kV), then bisects.
-pub fn min_voltage(
-    params: &ActuatorParams,
-    bandwidth_hz: f64,
-    opts: SweepOptions,
-    tol_v: f64,
-) -> Result<Design, HostError> {
-    check_bandwidth(bandwidth_hz)?;
-    let mut trace = Vec::new();
-    let fa = |v: f64, trace: &mut Vec<(f64, f64)>| -> Result<f64, HostError> {
-        let f = f_ar(params, SweepOptions { vpk: v, ..opts }, 0.002)?;
-        trace.push((v, f));
-        Ok(f)
-    };
-    let (mut lo, mut hi) = (0.0, 1.0);
-    while !meets(fa(hi, &mut trace)?, bandwidth_hz) {
-        lo = hi;
-        hi *= 2.0;
-        if hi > 1.0e4 {
-            return Err(HostError::input(format!(
-                "f_AR stays below {bandwidth_hz} Hz up to 10 kV_pk at {} deg of backlash",
-                params.backlash_deg
-            )));
-        }
-    }
-    while hi - lo > tol_v {
-        let mid = 0.5 * (lo + hi);
-        if fa(mid, &mut trace)? >= bandwidth_hz {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
-    }
-    Ok(Design { value: hi, trace })
-}
-
-/// f_AR meets the bandwidth; NaN (no notch in range) never does.
-fn meets(f_ar_hz: f64, bandwidth_hz: f64) -> bool {
-    f_ar_hz >= bandwidth_hz
-}
-
-fn check_bandwidth(f: f64) -> Result<(), HostError> {
-    if f.is_finite() && f > 0.0 {
-        Ok(())
-    } else {
-        Err(HostError::input(format!(
-            "--bandwidth-hz must be a positive frequency, got {f}"
-        )))
-    }
+    Ok(no_answer::judge(&x, &expect))
 }
 
 /// Spread of a gain in dB: the dB width of ±spread around |H|.

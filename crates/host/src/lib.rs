@@ -13,12 +13,14 @@
 )]
 
 pub mod calibrate;
+pub mod design;
 pub mod diagnose;
 pub mod diagnose_plots;
 pub mod diagnose_report;
 pub mod error;
 pub mod fr;
 pub mod knobs;
+pub mod no_answer;
 pub mod paper;
 pub mod params_file;
 pub mod plots;

@@ -5,10 +5,13 @@
 //! f_R the refined minimum of |I/V_m| above it (the pole of `Ωm/T_m`, eq. 17b in the linear
 //! case), each with the band of frequencies whose value is within two block spreads of the
 //! extremum. The describing-function prediction ([`geared_servo::describing`]) is drawn beside them.
+//! Where a feature has no answer ([`crate::no_answer`]) its CSV fields are empty, the JSON
+//! has null with the reason, and the plots leave the point out.
 
 use crate::error::HostError;
 use crate::fr::spread_db;
 use crate::fr::{self, Bench, LocateOptions, Located, Point, SweepOptions};
+use crate::no_answer::{add_reason, Answer};
 use crate::plots;
 use crate::progress::Progress;
 use crate::record::write_file;
@@ -59,19 +62,19 @@ pub struct BodeCurve {
 }
 
 /// f_AR, f_R located at one (voltage, backlash), with the DF prediction.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct FeatureRow {
     /// Voltage amplitude, V.
     pub vpk: f64,
     /// Total backlash, deg.
     pub backlash_deg: f64,
     /// Anti-resonance.
-    pub ar: Located,
+    pub ar: Answer<Located>,
     /// Resonance (minimum of |I/V_m| above f_AR), each frequency started on the linearised
-    /// steady state; its band is widened to cover `r_cold`.
-    pub r: Option<Located>,
-    /// The same started from rest: with backlash the response is multivalued near the
-    /// resonance (softening jump) and the start picks the branch.
+    /// steady state; its band is widened to cover `r_cold`. `None` where not searched (Fig. 6).
+    pub r: Option<Answer<Located>>,
+    /// The same started from rest, when resolved: with backlash the response is multivalued
+    /// near the resonance (softening jump) and the start picks the branch.
     pub r_cold: Option<Located>,
     /// Describing-function prediction.
     pub df: DfPrediction,
@@ -83,13 +86,15 @@ pub struct Map {
     pub backlash_deg: Vec<f64>,
     /// Voltage amplitudes, V.
     pub vpk: Vec<f64>,
-    /// f_AR\[row\]\[column\], Hz.
-    pub f_ar_hz: Vec<Vec<f64>>,
+    /// f_AR\[row\]\[column\], Hz; `None` where the response has no resolvable
+    /// anti-resonance.
+    pub f_ar_hz: Vec<Vec<Option<f64>>>,
 }
 
 impl Map {
     /// Per row, the backlash (deg) where f_AR first falls to `level_hz` (linear interpolation
-    /// between grid columns); None when the row never reaches it on the grid.
+    /// between grid columns, both with an answer); None when the row never reaches it on the
+    /// grid.
     pub fn contour(&self, level_hz: f64) -> Vec<(f64, Option<f64>)> {
         self.vpk
             .iter()
@@ -103,8 +108,11 @@ impl Map {
                             .iter()
                             .zip(self.backlash_deg.iter().skip(1)),
                     )
-                    .find(|((&f0, &f1), _)| f0 >= level_hz && f1 < level_hz)
-                    .map(|((&f0, &f1), (&b0, &b1))| b0 + (b1 - b0) * (f0 - level_hz) / (f0 - f1));
+                    .find_map(|((&f0, &f1), (&b0, &b1))| {
+                        let (f0, f1) = (f0?, f1?);
+                        (f0 >= level_hz && f1 < level_hz)
+                            .then(|| b0 + (b1 - b0) * (f0 - level_hz) / (f0 - f1))
+                    });
                 (v, cross)
             })
             .collect()
@@ -112,12 +120,12 @@ impl Map {
 }
 
 /// A design point found by bisection on the simulated f_AR.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct DesignPoint {
     /// Voltage amplitude, V.
     pub vpk: f64,
-    /// Largest backlash keeping f_AR ≥ the bandwidth, deg.
-    pub max_backlash_deg: f64,
+    /// Largest backlash keeping f_AR ≥ the bandwidth, deg, or why there is none.
+    pub max_backlash_deg: Answer<f64>,
     /// The paper's value, deg.
     pub paper_deg: f64,
 }
@@ -154,12 +162,8 @@ fn feature_row(
             ..SweepOptions::default()
         },
     )?;
-    let f0 = p
-        .derived()
-        .map_err(|e| HostError::input(e.reason()))?
-        .f_ar_hz;
     let lo = LocateOptions {
-        to_hz: if with_r { 300.0 } else { (f0 * 1.15).max(20.0) },
+        to_hz: if with_r { 300.0 } else { fr::f_ar_top_hz(&p)? },
         resonance: with_r,
         ..LocateOptions::default()
     };
@@ -175,8 +179,11 @@ fn feature_row(
                 ..SweepOptions::default()
             },
         )?;
-        r_cold = fr::locate(&cold, &lo, &())?.0.resonance;
-        if let (Some(w), Some(c)) = (res.as_mut(), r_cold) {
+        r_cold = fr::locate(&cold, &lo, &())?
+            .0
+            .resonance
+            .and_then(Result::ok);
+        if let (Some(Ok(w)), Some(c)) = (res.as_mut(), r_cold) {
             w.band_hz.0 = w.band_hz.0.min(c.band_hz.0);
             w.band_hz.1 = w.band_hz.1.max(c.band_hz.1);
             w.settled &= c.settled;
@@ -269,7 +276,11 @@ pub fn compute(
         vpk: FIG6_VPK.to_vec(),
         f_ar_hz: cells
             .chunks(bgrid.len())
-            .map(|r| r.iter().map(|c| c.ar.freq_hz).collect())
+            .map(|r| {
+                r.iter()
+                    .map(|c| c.ar.as_ref().ok().map(|l| l.freq_hz))
+                    .collect()
+            })
             .collect(),
     };
 
@@ -317,6 +328,11 @@ fn opt(x: Option<f64>) -> String {
     x.map(|v| format!("{v:.4}")).unwrap_or_default()
 }
 
+/// The resolved resonance of a row, if any.
+fn resolved_r(r: &FeatureRow) -> Option<Located> {
+    r.r.as_ref().and_then(|x| x.as_ref().ok()).copied()
+}
+
 fn rows_csv(rows: &[FeatureRow]) -> String {
     let mut s = String::from(
         "vpk,backlash_deg,f_ar_hz,f_ar_band_lo_hz,f_ar_band_hi_hz,f_ar_settled,\
@@ -324,18 +340,20 @@ fn rows_csv(rows: &[FeatureRow]) -> String {
          df_twist_ar_rad,df_twist_r_rad\n",
     );
     for r in rows {
+        let (ar, res) = (r.ar.as_ref().ok(), resolved_r(r));
         s.push_str(&format!(
-            "{},{},{:.4},{:.4},{:.4},{},{},{},{},{},{},{:.4},{:.4},{:.6e},{:.6e}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.6e},{:.6e}\n",
             r.vpk,
             r.backlash_deg,
-            r.ar.freq_hz,
-            r.ar.band_hz.0,
-            r.ar.band_hz.1,
-            u8::from(r.ar.settled),
-            opt(r.r.map(|x| x.freq_hz)),
-            opt(r.r.map(|x| x.band_hz.0)),
-            opt(r.r.map(|x| x.band_hz.1)),
-            r.r.map(|x| u8::from(x.settled).to_string())
+            opt(ar.map(|x| x.freq_hz)),
+            opt(ar.map(|x| x.band_hz.0)),
+            opt(ar.map(|x| x.band_hz.1)),
+            ar.map(|x| u8::from(x.settled).to_string())
+                .unwrap_or_default(),
+            opt(res.map(|x| x.freq_hz)),
+            opt(res.map(|x| x.band_hz.0)),
+            opt(res.map(|x| x.band_hz.1)),
+            res.map(|x| u8::from(x.settled).to_string())
                 .unwrap_or_default(),
             opt(r.r_cold.map(|x| x.freq_hz)),
             r.df.anti_resonance.freq_hz,
@@ -379,7 +397,7 @@ pub fn write_all(data: &PaperData, out: &Path) -> Result<Vec<PathBuf>, HostError
     let mut s = String::from("backlash_deg,vpk,f_ar_hz\n");
     for (v, row) in data.map.vpk.iter().zip(data.map.f_ar_hz.iter()) {
         for (b, f) in data.map.backlash_deg.iter().zip(row.iter()) {
-            s.push_str(&format!("{b},{v},{f:.4}\n"));
+            s.push_str(&format!("{b},{v},{}\n", opt(*f)));
         }
     }
     put("fig6_map.csv", s)?;
@@ -395,8 +413,11 @@ pub fn write_all(data: &PaperData, out: &Path) -> Result<Vec<PathBuf>, HostError
     let mut s = String::from("bandwidth_hz,vpk,max_backlash_deg,paper_deg\n");
     for d in &data.design {
         s.push_str(&format!(
-            "{},{},{:.4},{}\n",
-            data.bandwidth_hz, d.vpk, d.max_backlash_deg, d.paper_deg
+            "{},{},{},{}\n",
+            data.bandwidth_hz,
+            d.vpk,
+            opt(d.max_backlash_deg.as_ref().ok().copied()),
+            d.paper_deg
         ));
     }
     put("design_points.csv", s)?;
@@ -413,6 +434,8 @@ pub fn summary(data: &PaperData) -> (String, Value) {
          | V_pk | max backlash (simulated) | paper |\n|---:|---:|---:|\n",
         data.bandwidth_hz
     );
+    // Reasons for the cells that have no answer, listed under their table.
+    let mut notes = Vec::new();
     // The paper quotes its design points for 100 Hz only.
     let paper_bw = (data.bandwidth_hz - 100.0).abs() < 1e-9;
     for d in &data.design {
@@ -421,11 +444,16 @@ pub fn summary(data: &PaperData) -> (String, Value) {
         } else {
             "– (quoted for 100 Hz)".to_string()
         };
-        t.push_str(&format!(
-            "| {:.1} | {:.3} deg | {paper} |\n",
-            d.vpk, d.max_backlash_deg
-        ));
+        let sim = match &d.max_backlash_deg {
+            Ok(b) => format!("{b:.3} deg"),
+            Err(na) => {
+                notes.push(format!("- {} V_pk: {}", d.vpk, na.reason));
+                "no answer".to_string()
+            }
+        };
+        t.push_str(&format!("| {:.1} | {sim} | {paper} |\n", d.vpk));
     }
+    push_notes(&mut t, &mut notes);
     t.push_str(&format!(
         "\nf_AR / f_R located on the simulated response (Hz; closed form without backlash: {:.3} / {:.3})\n\
          | V_pk | backlash (deg) | f_AR | f_AR band | f_R | f_R band | DF f_AR | DF f_R |\n\
@@ -438,42 +466,62 @@ pub fn summary(data: &PaperData) -> (String, Value) {
             .any(|b| (b - r.backlash_deg).abs() < 1e-9)
     });
     for r in pick {
-        let (fr, band) = match r.r {
-            Some(l) => (
+        let mut cell = |l: Option<&Answer<Located>>, what: &str| match l {
+            Some(Ok(l)) => (
                 format!("{:.2}", l.freq_hz),
                 format!("{:.1}–{:.1}", l.band_hz.0, l.band_hz.1),
             ),
+            Some(Err(na)) => {
+                notes.push(format!(
+                    "- {} V_pk, {} deg, {what}: {}",
+                    r.vpk, r.backlash_deg, na.reason
+                ));
+                ("–".into(), "–".into())
+            }
             None => ("–".into(), "–".into()),
         };
+        let (far, far_band) = cell(Some(&r.ar), "f_AR");
+        let (fr, band) = cell(r.r.as_ref(), "f_R");
         t.push_str(&format!(
-            "| {:.1} | {:.2} | {:.2} | {:.1}–{:.1} | {} | {} | {:.2} | {:.2} |\n",
-            r.vpk,
-            r.backlash_deg,
-            r.ar.freq_hz,
-            r.ar.band_hz.0,
-            r.ar.band_hz.1,
-            fr,
-            band,
-            r.df.anti_resonance.freq_hz,
-            r.df.resonance.freq_hz
+            "| {:.1} | {:.2} | {far} | {far_band} | {fr} | {band} | {:.2} | {:.2} |\n",
+            r.vpk, r.backlash_deg, r.df.anti_resonance.freq_hz, r.df.resonance.freq_hz
         ));
     }
+    push_notes(&mut t, &mut notes);
+    let feature_json = |r: &FeatureRow| {
+        let mut o = json!({
+            "vpk": r.vpk, "backlash_deg": r.backlash_deg,
+            "f_ar_hz": r.ar.as_ref().ok().map(|x| x.freq_hz),
+            "f_r_hz": resolved_r(r).map(|x| x.freq_hz),
+            "df_f_ar_hz": r.df.anti_resonance.freq_hz, "df_f_r_hz": r.df.resonance.freq_hz});
+        add_reason(&mut o, "f_ar", &r.ar);
+        if let Some(a) = &r.r {
+            add_reason(&mut o, "f_r", a);
+        }
+        o
+    };
     let json = json!({
         "bandwidth_hz": data.bandwidth_hz,
         "closed_form": {"f_ar_hz": data.closed_form.0, "f_r_hz": data.closed_form.1},
-        "design_points": data.design.iter().map(|d| json!({
-            "vpk": d.vpk, "max_backlash_deg": d.max_backlash_deg, "paper_deg": d.paper_deg}))
-            .collect::<Vec<_>>(),
-        "fig4": data.fig4.iter().map(|r| json!({
-            "vpk": r.vpk, "backlash_deg": r.backlash_deg, "f_ar_hz": r.ar.freq_hz,
-            "f_r_hz": r.r.map(|x| x.freq_hz),
-            "df_f_ar_hz": r.df.anti_resonance.freq_hz, "df_f_r_hz": r.df.resonance.freq_hz}))
-            .collect::<Vec<_>>(),
-        "fig5": data.fig5.iter().map(|r| json!({
-            "vpk": r.vpk, "backlash_deg": r.backlash_deg, "f_ar_hz": r.ar.freq_hz,
-            "f_r_hz": r.r.map(|x| x.freq_hz),
-            "df_f_ar_hz": r.df.anti_resonance.freq_hz, "df_f_r_hz": r.df.resonance.freq_hz}))
-            .collect::<Vec<_>>(),
+        "design_points": data.design.iter().map(|d| {
+            let mut o = json!({"vpk": d.vpk, "max_backlash_deg": d.max_backlash_deg.as_ref().ok(),
+                               "paper_deg": d.paper_deg});
+            add_reason(&mut o, "max_backlash", &d.max_backlash_deg);
+            o
+        }).collect::<Vec<_>>(),
+        "fig4": data.fig4.iter().map(feature_json).collect::<Vec<_>>(),
+        "fig5": data.fig5.iter().map(feature_json).collect::<Vec<_>>(),
     });
     (t, json)
+}
+
+/// Appends the collected reasons (if any) under a table, and empties the list.
+fn push_notes(t: &mut String, notes: &mut Vec<String>) {
+    if !notes.is_empty() {
+        t.push_str("\nNo answer:\n");
+        for n in notes.drain(..) {
+            t.push_str(&n);
+            t.push('\n');
+        }
+    }
 }

@@ -2,6 +2,7 @@
 //! f vs backlash, Fig. 6 f_AR map with iso-f_AR contours and the design points.
 
 use crate::error::HostError;
+use crate::fr::Located;
 use crate::paper::{FeatureRow, PaperData};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -132,6 +133,16 @@ fn fig3(d: &PaperData) -> Result<String, HostError> {
     })
 }
 
+/// f_AR (`which` 0) or f_R of a row where it has an answer.
+fn resolved(r: &FeatureRow, which: u8) -> Option<Located> {
+    let l = if which == 0 {
+        Some(&r.ar)
+    } else {
+        r.r.as_ref()
+    };
+    l.and_then(|l| l.as_ref().ok()).copied()
+}
+
 fn band_bars<'a>(
     rows: &'a [FeatureRow],
     x: impl Fn(&FeatureRow) -> f64 + 'a,
@@ -139,7 +150,7 @@ fn band_bars<'a>(
     col: RGBColor,
 ) -> impl Iterator<Item = ErrorBar<f64, f64, plotters::element::ErrorBarOrientV<f64, f64>>> + 'a {
     rows.iter().filter_map(move |r| {
-        let l = if which == 0 { Some(r.ar) } else { r.r }?;
+        let l = resolved(r, which)?;
         Some(ErrorBar::new_vertical(
             x(r),
             l.band_hz.0,
@@ -167,7 +178,7 @@ fn feature_chart<'a, 'b: 'a, X: Ranged<ValueType = f64>>(
         let sim: Vec<(f64, f64)> = rows
             .iter()
             .filter_map(|r| {
-                let l = if which == 0 { Some(r.ar) } else { r.r }?;
+                let l = resolved(r, which)?;
                 Some((x(r), l.freq_hz))
             })
             .collect();
@@ -251,7 +262,7 @@ fn fig5(d: &PaperData) -> Result<String, HostError> {
         let panels = body.split_evenly((1, 2));
         // The paper's order: (a) 17.9 V, (b) 10 V.
         for (i, (v, label)) in [(17.9, "(a)"), (10.0, "(b)")].iter().enumerate() {
-            let rows: Vec<FeatureRow> = d.fig5.iter().filter(|r| r.vpk == *v).copied().collect();
+            let rows: Vec<FeatureRow> = d.fig5.iter().filter(|r| r.vpk == *v).cloned().collect();
             let bmax = rows.iter().map(|r| r.backlash_deg).fold(0.0, f64::max);
             let Some(area) = panels.get(i) else { continue };
             let mut ch = ChartBuilder::on(area)
@@ -346,7 +357,9 @@ fn fig6(d: &PaperData) -> Result<String, HostError> {
             e
         };
         for ((row, &v0), &v1) in m.f_ar_hz.iter().zip(edges.iter()).zip(edges.iter().skip(1)) {
-            ch.draw_series(row.iter().zip(m.backlash_deg.iter()).map(|(&f, &b)| {
+            // Cells without an answer stay blank.
+            let cells = row.iter().zip(m.backlash_deg.iter());
+            ch.draw_series(cells.filter_map(|(&f, &b)| Some((f?, b))).map(|(f, b)| {
                 Rectangle::new(
                     [(b - db / 2.0, v0), (b + db / 2.0, v1)],
                     colour((f - flo) / (fhi - flo)).filled(),
@@ -388,13 +401,16 @@ fn fig6(d: &PaperData) -> Result<String, HostError> {
                 .map_err(err)?;
             }
         }
-        ch.draw_series(d.design.iter().map(|p| {
-            TriangleMarker::new(
-                (p.max_backlash_deg, p.vpk),
-                9,
-                RGBColor(230, 30, 30).filled(),
-            )
-        }))
+        let found: Vec<(f64, f64)> = d
+            .design
+            .iter()
+            .filter_map(|p| Some((*p.max_backlash_deg.as_ref().ok()?, p.vpk)))
+            .collect();
+        ch.draw_series(
+            found
+                .iter()
+                .map(|&p| TriangleMarker::new(p, 9, RGBColor(230, 30, 30).filled())),
+        )
         .map_err(err)?
         .label("design point (bisection on simulated f_AR)")
         .legend(|(a, b)| TriangleMarker::new((a + 10, b), 7, RGBColor(230, 30, 30).filled()));
@@ -409,10 +425,10 @@ fn fig6(d: &PaperData) -> Result<String, HostError> {
             .label("paper's design point (0.03 deg @ 10 V, 0.08 deg @ 30 V)")
             .legend(|(a, b)| Cross::new((a + 10, b), 6, BLACK.stroke_width(2)));
         }
-        for p in &d.design {
+        for &(b, v) in &found {
             ch.draw_series(std::iter::once(Text::new(
-                format!("{:.3} deg @ {} V", p.max_backlash_deg, p.vpk),
-                (p.max_backlash_deg + 0.004, p.vpk * 0.93),
+                format!("{b:.3} deg @ {v} V"),
+                (b + 0.004, v * 0.93),
                 ("sans-serif", 14).into_font().color(&WHITE),
             )))
             .map_err(err)?;

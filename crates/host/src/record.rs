@@ -7,11 +7,15 @@
 use crate::error::{shown, HostError};
 use std::path::Path;
 
-/// Output columns a record may carry, in the canonical order.
-pub const OUTPUT_COLUMNS: [&str; 4] = [
+/// Output columns a record may carry (INTERFACES.md "Measured data"), in the order the fit
+/// prefers them when a record has several ([`crate::calibrate::Data::from_record`]): the
+/// motor-side speed sensors, then the output shaft's encoder (its angle, then a speed derived
+/// from it), then the current.
+pub const OUTPUT_COLUMNS: [&str; 5] = [
     "tach_voltage_v",
-    "load_angle_deg",
     "motor_speed_rad_s",
+    "load_angle_deg",
+    "load_speed_rad_s",
     "current_a",
 ];
 
