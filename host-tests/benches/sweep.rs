@@ -7,7 +7,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use geared_servo::REFERENCE;
-use geared_servo_host::fr::{clear_drive_cache, grid, Bench, SweepOptions};
+use geared_servo_host::fr::{grid, Bench, SweepOptions};
 use std::hint::black_box;
 
 fn sweep(c: &mut Criterion) {
@@ -16,11 +16,10 @@ fn sweep(c: &mut Criterion) {
     g.sample_size(20);
     for b in [0.0, 0.08] {
         // Cold: bench construction (plant discretisation, describing function) and the 291
-        // sine drives (matrix exponentials; cached across backlash values in `paper`) are
-        // part of the sweep.
+        // sine drives (matrix exponentials; `paper` shares them across backlash values through
+        // `fr::Drives`, a new bench builds its own) are part of the sweep.
         g.bench_function(format!("backlash_{b}_deg"), |bch| {
             bch.iter(|| {
-                clear_drive_cache();
                 let bench =
                     Bench::new(&REFERENCE.with_backlash_deg(b), SweepOptions::default()).unwrap();
                 black_box(bench.sweep(black_box(&freqs), &()).unwrap())

@@ -4,7 +4,7 @@
 //! diffs the QEMU output with.)
 
 use geared_servo::REFERENCE;
-use geared_servo_host::fr::{self, clear_drive_cache, grid, Bench, SweepOptions};
+use geared_servo_host::fr::{self, grid, Bench, SweepOptions};
 
 /// Runs `f` on a fresh rayon pool of `threads` threads.
 fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
@@ -16,7 +16,7 @@ fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
 }
 
 fn sweep() -> Vec<fr::Point> {
-    clear_drive_cache();
+    // A new bench builds its sine drives afresh: every run starts cold.
     let opts = SweepOptions {
         vpk: 10.0,
         ..SweepOptions::default()

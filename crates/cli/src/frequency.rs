@@ -82,6 +82,16 @@ pub fn bode(
     m: &MeasureArgs,
 ) -> Result<Report, HostError> {
     let (p, name) = load_params(cli, backlash)?;
+    if !(from.is_finite() && to.is_finite() && step.is_finite() && from > 0.0 && to >= from) {
+        return Err(HostError::input(format!(
+            "frequency range must satisfy 0 < --from <= --to, got {from}..{to}"
+        )));
+    }
+    if step <= 0.0 || (to - from) / step > 1.0e6 {
+        return Err(HostError::input(format!(
+            "--step must be positive and give at most a million points, got {step}"
+        )));
+    }
     let freqs = fr::grid(from, to, step)?;
     let bench = Bench::new(&p, m.options(vpk)?)?;
     let pb = progress(freqs.len() as u64, "bode");
@@ -172,11 +182,8 @@ pub fn resonances(
     );
     let (r, _) = fr::locate(&bench, &lo, &pb)?;
     pb.finish();
-    let d = p
-        .derived()
-        .map_err(|e| HostError::input(format!("key `{}` {}", e.field(), e.reason())))?;
-    let df = describing::predict(&p, vpk)
-        .map_err(|e| HostError::input(format!("key `{}` {}", e.field(), e.reason())))?;
+    let d = p.derived().map_err(HostError::from)?;
+    let df = describing::predict(&p, vpk).map_err(HostError::from)?;
     let (ar, res, peak) = (
         found(Some(&r.anti_resonance)),
         found(r.resonance.as_ref()),
@@ -251,7 +258,9 @@ pub fn max_backlash(
     m: &MeasureArgs,
 ) -> Result<Report, HostError> {
     let (p, name) = load_params(cli, None)?;
-    let d = fr::max_backlash(&p, bandwidth, m.options(vpk)?, 0.001)?;
+    let opts = m.options(vpk)?;
+    check_bandwidth(bandwidth)?;
+    let d = fr::max_backlash(&p, bandwidth, opts, 0.001)?;
     let mut json = json!({"params": name, "bandwidth_hz": bandwidth, "vpk": vpk,
         "max_backlash_deg": d.value.as_ref().ok(), "tolerance_deg": 0.001,
         "trace": trace_json(&d, "backlash_deg")});
@@ -280,7 +289,9 @@ pub fn min_voltage(
     m: &MeasureArgs,
 ) -> Result<Report, HostError> {
     let (p, name) = load_params(cli, Some(backlash))?;
-    let d = fr::min_voltage(&p, bandwidth, m.options(10.0)?, 0.05)?;
+    let opts = m.options(10.0)?;
+    check_bandwidth(bandwidth)?;
+    let d = fr::min_voltage(&p, bandwidth, opts, 0.05)?;
     let mut json = json!({"params": name, "bandwidth_hz": bandwidth, "backlash_deg": backlash,
         "min_vpk": d.value.as_ref().ok(), "tolerance_v": 0.05,
         "trace": trace_json(&d, "vpk")});
@@ -307,4 +318,15 @@ fn trace_json(d: &fr::Design, arg: &str) -> Vec<Value> {
         .iter()
         .map(|(x, f)| json!({arg: x, "f_ar_hz": f.as_ref().ok()}))
         .collect()
+}
+
+/// `--bandwidth-hz` is a positive frequency.
+fn check_bandwidth(f: f64) -> Result<(), HostError> {
+    if f.is_finite() && f > 0.0 {
+        Ok(())
+    } else {
+        Err(HostError::input(format!(
+            "--bandwidth-hz must be a positive frequency, got {f}"
+        )))
+    }
 }

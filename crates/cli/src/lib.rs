@@ -210,9 +210,7 @@ pub fn run(cli: &Cli) -> Result<Report, HostError> {
 
 fn info(cli: &Cli) -> Result<Report, HostError> {
     let (p, name) = load_params(cli, None)?;
-    let d = p
-        .derived()
-        .map_err(|e| HostError::input(format!("{name}: key `{}` {}", e.field(), e.reason())))?;
+    let d = p.derived().map_err(|e| HostError::from(e).at(&name))?;
     let tau_e = p.motor.inductance_h / p.motor.resistance_ohm;
     let json = json!({
         "params": name,

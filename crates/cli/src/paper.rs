@@ -2,7 +2,8 @@
 
 use crate::progress::progress;
 use crate::{load_params, Cli, Report};
-use geared_servo_host::paper::{compute, job_count, summary, write_all};
+use geared_servo_host::paper::{compute, job_count, summary};
+use geared_servo_host::paper_files::write_all;
 use geared_servo_host::record::write_file;
 use geared_servo_host::HostError;
 use serde_json::{json, Value};

@@ -1,7 +1,8 @@
 //! `geared-servo synth`: synthetic measured data.
 
 use crate::{load_params, Cli, Report};
-use geared_servo_host::synth::{parse_effect, synthesize, Excitation, SynthSpec};
+use geared_servo::Effect;
+use geared_servo_host::synth::{synthesize, Excitation, SynthSpec};
 use geared_servo_host::HostError;
 
 /// Arguments of `geared-servo synth`.
@@ -110,4 +111,38 @@ fn excitation_parser() -> impl clap::builder::TypedValueParser<Value = Excitatio
     use clap::builder::TypedValueParser;
     clap::builder::PossibleValuesParser::new(Excitation::ALL.map(Excitation::name))
         .try_map(|s| s.parse::<Excitation>())
+}
+
+/// Parses `NAME=VALUE` of `--effect`.
+pub fn parse_effect(arg: &str) -> Result<(Effect, f64), HostError> {
+    let (n, v) = arg
+        .split_once('=')
+        .ok_or_else(|| HostError::input(format!("--effect `{arg}`: expected NAME=VALUE")))?;
+    let effect = Effect::from_name(n.trim())
+        .map_err(|e| HostError::input(format!("--effect `{arg}`: {e}")))?;
+    let x: f64 = v
+        .trim()
+        .parse()
+        .map_err(|_| HostError::input(format!("--effect `{arg}`: `{v}` is not a number")))?;
+    if !x.is_finite() {
+        return Err(HostError::input(format!(
+            "--effect `{arg}`: value is not finite"
+        )));
+    }
+    Ok((effect, x))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unknown_effect_name_is_bad_input() {
+        assert!(parse_effect("friction=1").is_err());
+        assert!(parse_effect("tach_gain").is_err());
+        assert_eq!(
+            parse_effect("tach_gain=0.1").unwrap(),
+            (Effect::TachGain, 0.1)
+        );
+    }
 }

@@ -4,17 +4,16 @@
 //! Nyquist frequency, where the simulation cannot say and the query has no answer either.
 
 use crate::error::HostError;
-use crate::fr::{locate, Bench, LocateOptions, SweepOptions};
+use crate::fr::{locate, Bench, Drives, LocateOptions, SweepOptions};
 use crate::no_answer::{self, Answer, Cause, Expectation, Feature, NoAnswer};
 use geared_servo::ActuatorParams;
+use std::sync::Arc;
 
 /// Top of the grid on which [`f_ar`] (and Fig. 6 of `paper`) look for the anti-resonance,
 /// Hz: a little above the backlash-free f_AR (an upper bound; hinge spring included), at
 /// least 20 Hz, below the Nyquist frequency.
 pub fn f_ar_top_hz(params: &ActuatorParams) -> Result<f64, HostError> {
-    let d = params
-        .derived()
-        .map_err(|e| HostError::input(format!("key `{}` {}", e.field(), e.reason())))?;
+    let d = params.derived().map_err(HostError::from)?;
     let kh = params.effects.hinge_stiffness;
     let f0 = if kh > 0.0 {
         ((d.k_eq_nm_per_rad + kh) / params.load.inertia_kg_m2).sqrt() / (2.0 * std::f64::consts::PI)
@@ -32,6 +31,17 @@ pub fn f_ar(
     opts: SweepOptions,
     tol_hz: f64,
 ) -> Result<Answer<f64>, HostError> {
+    f_ar_with(params, opts, tol_hz, &Drives::shared())
+}
+
+/// [`f_ar`] with the sine drives of `drives`: a bisection's evaluations revisit the same
+/// grid frequencies.
+fn f_ar_with(
+    params: &ActuatorParams,
+    opts: SweepOptions,
+    tol_hz: f64,
+    drives: &Arc<Drives>,
+) -> Result<Answer<f64>, HostError> {
     let lo = LocateOptions {
         from_hz: 10.0,
         to_hz: f_ar_top_hz(params)?,
@@ -39,7 +49,7 @@ pub fn f_ar(
         tol_hz,
         resonance: false,
     };
-    let bench = Bench::new(params, opts)?;
+    let bench = Bench::with_drives(params, opts, Arc::clone(drives))?;
     let expect = Expectation::new(params, opts.vpk)?;
     if let Some(na) = expect.rules_out(Feature::AntiResonance, (lo.from_hz, lo.to_hz)) {
         return Ok(Err(na));
@@ -114,7 +124,8 @@ pub fn max_backlash(
     tol_deg: f64,
 ) -> Result<Design, HostError> {
     check_bandwidth(bandwidth_hz)?;
-    let eval = |b: f64| f_ar(&params.with_backlash_deg(b), opts, 0.002);
+    let drives = Drives::shared();
+    let eval = |b: f64| f_ar_with(&params.with_backlash_deg(b), opts, 0.002, &drives);
     let mut q = Query {
         bandwidth_hz,
         f_ar: &eval,
@@ -166,7 +177,8 @@ pub fn min_voltage(
     tol_v: f64,
 ) -> Result<Design, HostError> {
     check_bandwidth(bandwidth_hz)?;
-    let eval = |v: f64| f_ar(params, SweepOptions { vpk: v, ..opts }, 0.002);
+    let drives = Drives::shared();
+    let eval = |v: f64| f_ar_with(params, SweepOptions { vpk: v, ..opts }, 0.002, &drives);
     let mut q = Query {
         bandwidth_hz,
         f_ar: &eval,
@@ -214,7 +226,7 @@ fn check_bandwidth(f: f64) -> Result<(), HostError> {
         Ok(())
     } else {
         Err(HostError::input(format!(
-            "--bandwidth-hz must be a positive frequency, got {f}"
+            "the bandwidth must be a positive frequency, got {f} Hz"
         )))
     }
 }

@@ -72,6 +72,14 @@ impl HostError {
         }
     }
 
+    /// The same error said of `place` (a file, a record, an argument): `place: message`.
+    pub fn at(self, place: &str) -> HostError {
+        HostError {
+            kind: self.kind,
+            message: one_line(format!("{place}: {}", self.message)),
+        }
+    }
+
     /// Process exit status for this error.
     pub fn exit_code(&self) -> i32 {
         match self.kind {
@@ -88,3 +96,18 @@ impl fmt::Display for HostError {
 }
 
 impl std::error::Error for HostError {}
+
+/// A rejected parameter is bad input; the message names its key in the parameter file.
+impl From<geared_servo::ParamError> for HostError {
+    fn from(e: geared_servo::ParamError) -> HostError {
+        HostError::input(format!("key `{}` {}", e.field(), e.reason()))
+    }
+}
+
+/// A rejected analyser configuration is bad input (a frequency or block length the sample
+/// period cannot carry).
+impl From<geared_servo::analyser::ConfigError> for HostError {
+    fn from(e: geared_servo::analyser::ConfigError) -> HostError {
+        HostError::input(e.to_string())
+    }
+}

@@ -15,8 +15,7 @@ use geared_servo::linear::LinearModel;
 use geared_servo::{ActuatorParams, Plant, SineDrive};
 use rayon::prelude::*;
 use std::collections::HashMap;
-use std::hash::{Hash, Hasher};
-use std::sync::{Mutex, OnceLock};
+use std::sync::{Arc, Mutex};
 
 /// How each frequency is measured.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -70,66 +69,88 @@ impl Point {
     }
 }
 
-/// Sine drives already built, keyed by (parameters without backlash, frequency bits): the
-/// drive's matrices do not depend on the backlash, and `paper` and the design queries revisit
-/// the same grid frequencies for many backlash values. Bounded; cleared when full.
-static DRIVES: OnceLock<Mutex<HashMap<(u64, u64), SineDrive>>> = OnceLock::new();
-
-/// Most drives kept (about 0.5 kB each).
-const DRIVE_CACHE_MAX: usize = 20_000;
-
-/// Empties the sine-drive cache (benchmarks measuring a cold sweep).
-pub fn clear_drive_cache() {
-    if let Ok(mut m) = DRIVES.get_or_init(Default::default).lock() {
-        m.clear();
-    }
+/// Sine drives already built, shared by the benches of one computation. A drive (the exact
+/// discretisation of the sine input at one frequency) depends on the parameters but not on
+/// the backlash, and `paper` and the design queries revisit the same frequencies for many
+/// backlash values. Keyed exactly: the parameters (backlash set to 0) compared by value and
+/// the frequency by its bits. Bounded; cleared when full. Owned by the caller (no process
+/// state): share one through an `Arc` between benches, threads included.
+#[derive(Debug, Default)]
+pub struct Drives {
+    sets: Mutex<Vec<(ActuatorParams, HashMap<u64, SineDrive>)>>,
 }
 
-fn drive(key: u64, params: &ActuatorParams, freq_hz: f64) -> Result<SineDrive, HostError> {
-    let cache = DRIVES.get_or_init(Default::default);
-    let k = (key, freq_hz.to_bits());
-    if let Some(d) = cache.lock().ok().and_then(|m| m.get(&k).copied()) {
-        return Ok(d);
+/// Most drives one [`Drives`] keeps (about 0.5 kB each).
+const DRIVE_CACHE_MAX: usize = 20_000;
+
+impl Drives {
+    /// An empty cache, ready to share.
+    pub fn shared() -> Arc<Drives> {
+        Arc::new(Drives::default())
     }
-    let d = SineDrive::new(params, freq_hz).map_err(param_err)?;
-    if let Ok(mut m) = cache.lock() {
-        if m.len() >= DRIVE_CACHE_MAX {
-            m.clear();
+
+    /// The drive of `params` at `freq_hz`, built on first use.
+    fn get(&self, params: &ActuatorParams, freq_hz: f64) -> Result<SineDrive, HostError> {
+        let key = params.with_backlash_deg(0.0);
+        let bits = freq_hz.to_bits();
+        if let Ok(sets) = self.sets.lock() {
+            if let Some(d) = sets
+                .iter()
+                .find(|(p, _)| *p == key)
+                .and_then(|(_, m)| m.get(&bits))
+            {
+                return Ok(*d);
+            }
         }
-        m.insert(k, d);
+        let d = SineDrive::new(params, freq_hz)?;
+        if let Ok(mut sets) = self.sets.lock() {
+            if sets.iter().map(|(_, m)| m.len()).sum::<usize>() >= DRIVE_CACHE_MAX {
+                sets.clear();
+            }
+            match sets.iter_mut().find(|(p, _)| *p == key) {
+                Some((_, m)) => {
+                    m.insert(bits, d);
+                }
+                None => sets.push((key, HashMap::from([(bits, d)]))),
+            }
+        }
+        Ok(d)
     }
-    Ok(d)
 }
 
 /// A parameter set ready to be measured at any frequency: the plant and the warm-start model.
 pub struct Bench {
-    drive_key: u64,
+    drives: Arc<Drives>,
     params: ActuatorParams,
     plant: Plant,
     warm: LinearModel,
     opts: SweepOptions,
 }
 
-fn param_err(e: geared_servo::ParamError) -> HostError {
-    HostError::input(format!("key `{}` {}", e.field(), e.reason()))
-}
-
 impl Bench {
     /// Builds the plant for `params` and the linear warm-start model (stiffness k_eff from
     /// the describing function at the anti-resonance for `opts.vpk`).
     pub fn new(params: &ActuatorParams, opts: SweepOptions) -> Result<Bench, HostError> {
+        Bench::with_drives(params, opts, Drives::shared())
+    }
+
+    /// [`Bench::new`] taking its sine drives from `drives`, shared with other benches of the
+    /// same parameters (the backlash aside).
+    pub fn with_drives(
+        params: &ActuatorParams,
+        opts: SweepOptions,
+        drives: Arc<Drives>,
+    ) -> Result<Bench, HostError> {
         if !(opts.vpk.is_finite() && opts.vpk > 0.0) {
             return Err(HostError::input(format!(
                 "the voltage amplitude must be a positive number of volts, got {}",
                 opts.vpk
             )));
         }
-        let plant = Plant::new(params).map_err(param_err)?;
-        let warm = describing::warm_start_model(params, opts.vpk).map_err(param_err)?;
-        let mut h = std::collections::hash_map::DefaultHasher::new();
-        format!("{:?}", params.with_backlash_deg(0.0)).hash(&mut h);
+        let plant = Plant::new(params)?;
+        let warm = describing::warm_start_model(params, opts.vpk)?;
         Ok(Bench {
-            drive_key: h.finish(),
+            drives,
             params: *params,
             plant,
             warm,
@@ -151,7 +172,7 @@ impl Bench {
                 "cannot measure at {freq_hz} Hz (sample period {h} s): {what}"
             ))
         };
-        let drive = drive(self.drive_key, &self.params, freq_hz)?;
+        let drive = self.drives.get(&self.params, freq_hz)?;
         let a = analyser::for_sweep(freq_hz, h, &o.settings).map_err(|e| bad(e.0))?;
         let start = if o.warm_start {
             self.warm.steady_state(freq_hz, o.vpk)
@@ -187,12 +208,12 @@ impl Bench {
 pub fn grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>, HostError> {
     if !(from.is_finite() && to.is_finite() && step.is_finite() && from > 0.0 && to >= from) {
         return Err(HostError::input(format!(
-            "frequency range must satisfy 0 < --from <= --to, got {from}..{to}"
+            "frequency range must satisfy 0 < first <= last, got {from}..{to} Hz"
         )));
     }
     if step <= 0.0 || (to - from) / step > 1.0e6 {
         return Err(HostError::input(format!(
-            "--step must be positive and give at most a million points, got {step}"
+            "frequency step must be positive and give at most a million points, got {step} Hz"
         )));
     }
     let n = ((to - from) / step + 1e-9).floor() as usize;

@@ -140,9 +140,7 @@ impl Knob {
 /// Replaces geometry by the equivalent measured stiffness (same k1, k2), so that the
 /// stiffness can be scaled and written back in the `[stiffness]` form.
 pub fn with_measured_stiffness(p: &ActuatorParams) -> Result<ActuatorParams, HostError> {
-    let d = p
-        .derived()
-        .map_err(|e| HostError::input(format!("key `{}` {}", e.field(), e.reason())))?;
+    let d = p.derived().map_err(HostError::from)?;
     let mut q = *p;
     q.gears.stiffness = Stiffness::Measured {
         k1_nm_per_rad: d.k1_nm_per_rad,

@@ -22,6 +22,7 @@ pub mod fr;
 pub mod knobs;
 pub mod no_answer;
 pub mod paper;
+pub mod paper_files;
 pub mod params_file;
 pub mod plots;
 pub mod progress;

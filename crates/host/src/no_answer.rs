@@ -199,11 +199,8 @@ pub struct Expectation {
 impl Expectation {
     /// The expectation for `params` driven at `vpk` (V; the amplifier limit applies).
     pub fn new(params: &ActuatorParams, vpk: f64) -> Result<Expectation, HostError> {
-        let bad = |e: geared_servo::ParamError| {
-            HostError::input(format!("key `{}` {}", e.field(), e.reason()))
-        };
-        let d = params.derived().map_err(bad)?;
-        let df = describing::predict(params, vpk).map_err(bad)?;
+        let d = params.derived()?;
+        let df = describing::predict(params, vpk)?;
         let m = &params.motor;
         let (jl, kh) = (params.load.inertia_kg_m2, params.effects.hinge_stiffness);
         let jm = d.n_total * d.n_total * m.inertia_kg_m2;

@@ -9,18 +9,17 @@
 //! has null with the reason, and the plots leave the point out.
 
 use crate::error::HostError;
-use crate::fr::spread_db;
-use crate::fr::{self, Bench, LocateOptions, Located, Point, SweepOptions};
+use crate::fr::{self, Bench, Drives, LocateOptions, Located, Point, SweepOptions};
 use crate::no_answer::{add_reason, Answer};
-use crate::plots;
 use crate::progress::Progress;
-use crate::record::write_file;
 use geared_servo::describing::{self, DfPrediction};
 use geared_servo::ActuatorParams;
 use rayon::prelude::*;
 use serde_json::{json, Value};
-use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
+/// Iso-f_AR levels of Fig. 6 (contours in the CSV and on the plot) besides the bandwidth, Hz.
+pub const FIG6_LEVELS: [f64; 5] = [80.0, 90.0, 100.0, 110.0, 120.0];
 /// Fig. 3: voltage amplitudes, V.
 pub const FIG3_VPK: [f64; 2] = [10.0, 17.9];
 /// Fig. 3: total backlash values, deg.
@@ -149,18 +148,20 @@ pub struct PaperData {
 }
 
 fn feature_row(
+    drives: &Arc<Drives>,
     params: &ActuatorParams,
     vpk: f64,
     backlash_deg: f64,
     with_r: bool,
 ) -> Result<FeatureRow, HostError> {
     let p = params.with_backlash_deg(backlash_deg);
-    let bench = Bench::new(
+    let bench = Bench::with_drives(
         &p,
         SweepOptions {
             vpk,
             ..SweepOptions::default()
         },
+        Arc::clone(drives),
     )?;
     let lo = LocateOptions {
         to_hz: if with_r { 300.0 } else { fr::f_ar_top_hz(&p)? },
@@ -171,13 +172,14 @@ fn feature_row(
     let mut res = r.resonance;
     let mut r_cold = None;
     if with_r && backlash_deg > 0.0 {
-        let cold = Bench::new(
+        let cold = Bench::with_drives(
             &p,
             SweepOptions {
                 vpk,
                 warm_start: false,
                 ..SweepOptions::default()
             },
+            Arc::clone(drives),
         )?;
         r_cold = fr::locate(&cold, &lo, &())?
             .0
@@ -189,7 +191,7 @@ fn feature_row(
             w.settled &= c.settled;
         }
     }
-    let df = describing::predict(&p, vpk).map_err(|e| HostError::input(e.reason()))?;
+    let df = describing::predict(&p, vpk).map_err(HostError::from)?;
     Ok(FeatureRow {
         vpk,
         backlash_deg,
@@ -201,6 +203,7 @@ fn feature_row(
 }
 
 fn rows(
+    drives: &Arc<Drives>,
     params: &ActuatorParams,
     cases: &[(f64, f64)],
     with_r: bool,
@@ -209,7 +212,7 @@ fn rows(
     cases
         .par_iter()
         .map(|&(v, b)| {
-            let r = feature_row(params, v, b, with_r);
+            let r = feature_row(drives, params, v, b, with_r);
             pb.advance(1);
             r
         })
@@ -222,9 +225,12 @@ pub fn compute(
     bandwidth_hz: f64,
     pb: &dyn Progress,
 ) -> Result<PaperData, HostError> {
-    let d = params.derived().map_err(|e| HostError::input(e.reason()))?;
+    let d = params.derived().map_err(HostError::from)?;
     let bgrid = backlash_grid();
     let freqs = fr::grid(10.0, 300.0, 1.0)?;
+    // One set of sine drives for every figure: they revisit the same frequencies for many
+    // backlash values and voltages.
+    let drives = Drives::shared();
 
     pb.stage("fig 3");
     let bode_cases: Vec<(f64, f64)> = FIG3_VPK
@@ -234,12 +240,13 @@ pub fn compute(
     let bode = bode_cases
         .par_iter()
         .map(|&(vpk, b)| {
-            let bench = Bench::new(
+            let bench = Bench::with_drives(
                 &params.with_backlash_deg(b),
                 SweepOptions {
                     vpk,
                     ..SweepOptions::default()
                 },
+                Arc::clone(&drives),
             )?;
             let points = bench.sweep(&freqs, &())?;
             pb.advance(1);
@@ -256,21 +263,21 @@ pub fn compute(
         .into_iter()
         .map(|v| (v, FIG4_BACKLASH_DEG))
         .collect();
-    let fig4 = rows(params, &c4, true, pb)?;
+    let fig4 = rows(&drives, params, &c4, true, pb)?;
 
     pb.stage("fig 5");
     let c5: Vec<(f64, f64)> = FIG5_VPK
         .iter()
         .flat_map(|&v| bgrid.iter().map(move |&b| (v, b)))
         .collect();
-    let fig5 = rows(params, &c5, true, pb)?;
+    let fig5 = rows(&drives, params, &c5, true, pb)?;
 
     pb.stage("fig 6");
     let c6: Vec<(f64, f64)> = FIG6_VPK
         .iter()
         .flat_map(|&v| bgrid.iter().map(move |&b| (v, b)))
         .collect();
-    let cells = rows(params, &c6, false, pb)?;
+    let cells = rows(&drives, params, &c6, false, pb)?;
     let map = Map {
         backlash_deg: bgrid.clone(),
         vpk: FIG6_VPK.to_vec(),
@@ -324,107 +331,9 @@ pub fn job_count() -> u64 {
         + PAPER_DESIGN_POINTS.len()) as u64
 }
 
-fn opt(x: Option<f64>) -> String {
-    x.map(|v| format!("{v:.4}")).unwrap_or_default()
-}
-
 /// The resolved resonance of a row, if any.
-fn resolved_r(r: &FeatureRow) -> Option<Located> {
+pub(crate) fn resolved_r(r: &FeatureRow) -> Option<Located> {
     r.r.as_ref().and_then(|x| x.as_ref().ok()).copied()
-}
-
-fn rows_csv(rows: &[FeatureRow]) -> String {
-    let mut s = String::from(
-        "vpk,backlash_deg,f_ar_hz,f_ar_band_lo_hz,f_ar_band_hi_hz,f_ar_settled,\
-         f_r_hz,f_r_band_lo_hz,f_r_band_hi_hz,f_r_settled,f_r_from_rest_hz,df_f_ar_hz,df_f_r_hz,\
-         df_twist_ar_rad,df_twist_r_rad\n",
-    );
-    for r in rows {
-        let (ar, res) = (r.ar.as_ref().ok(), resolved_r(r));
-        s.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{:.6e},{:.6e}\n",
-            r.vpk,
-            r.backlash_deg,
-            opt(ar.map(|x| x.freq_hz)),
-            opt(ar.map(|x| x.band_hz.0)),
-            opt(ar.map(|x| x.band_hz.1)),
-            ar.map(|x| u8::from(x.settled).to_string())
-                .unwrap_or_default(),
-            opt(res.map(|x| x.freq_hz)),
-            opt(res.map(|x| x.band_hz.0)),
-            opt(res.map(|x| x.band_hz.1)),
-            res.map(|x| u8::from(x.settled).to_string())
-                .unwrap_or_default(),
-            opt(r.r_cold.map(|x| x.freq_hz)),
-            r.df.anti_resonance.freq_hz,
-            r.df.resonance.freq_hz,
-            r.df.anti_resonance.twist_amplitude_rad,
-            r.df.resonance.twist_amplitude_rad
-        ));
-    }
-    s
-}
-
-/// Writes the CSV files and the SVG plots into `out`; returns the files written.
-pub fn write_all(data: &PaperData, out: &Path) -> Result<Vec<PathBuf>, HostError> {
-    std::fs::create_dir_all(out)
-        .map_err(|e| HostError::other(format!("{}: {e}", out.display())))?;
-    let mut files = Vec::new();
-    let mut put = |name: &str, text: String| -> Result<(), HostError> {
-        let p = out.join(name);
-        write_file(&p, &text)?;
-        files.push(p);
-        Ok(())
-    };
-    let mut s = String::from("vpk,backlash_deg,freq_hz,gain_db,phase_deg,gain_spread_db,settled\n");
-    for c in &data.bode {
-        for q in &c.points {
-            s.push_str(&format!(
-                "{},{},{},{:.6},{:.4},{:.6},{}\n",
-                c.vpk,
-                c.backlash_deg,
-                q.freq_hz,
-                q.tach.gain_db(),
-                q.tach.phase_deg(),
-                spread_db(q.tach.spread, q.gain()),
-                u8::from(q.settled)
-            ));
-        }
-    }
-    put("fig3_bode.csv", s)?;
-    put("fig4_voltage.csv", rows_csv(&data.fig4))?;
-    put("fig5_backlash.csv", rows_csv(&data.fig5))?;
-    let mut s = String::from("backlash_deg,vpk,f_ar_hz\n");
-    for (v, row) in data.map.vpk.iter().zip(data.map.f_ar_hz.iter()) {
-        for (b, f) in data.map.backlash_deg.iter().zip(row.iter()) {
-            s.push_str(&format!("{b},{v},{}\n", opt(*f)));
-        }
-    }
-    put("fig6_map.csv", s)?;
-    let mut s = String::from("level_hz,vpk,backlash_deg\n");
-    for level in plots::FIG6_LEVELS {
-        for (v, b) in data.map.contour(level) {
-            if let Some(b) = b {
-                s.push_str(&format!("{level},{v},{b:.5}\n"));
-            }
-        }
-    }
-    put("fig6_contours.csv", s)?;
-    let mut s = String::from("bandwidth_hz,vpk,max_backlash_deg,paper_deg\n");
-    for d in &data.design {
-        s.push_str(&format!(
-            "{},{},{},{}\n",
-            data.bandwidth_hz,
-            d.vpk,
-            opt(d.max_backlash_deg.as_ref().ok().copied()),
-            d.paper_deg
-        ));
-    }
-    put("design_points.csv", s)?;
-    for (name, svg) in plots::all(data)? {
-        put(name, svg)?;
-    }
-    Ok(files)
 }
 
 /// The design-point table and the figures' key numbers, as text and as JSON.

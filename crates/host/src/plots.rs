@@ -3,12 +3,9 @@
 
 use crate::error::HostError;
 use crate::fr::Located;
-use crate::paper::{FeatureRow, PaperData};
+use crate::paper::{FeatureRow, PaperData, FIG6_LEVELS};
 use plotters::coord::Shift;
 use plotters::prelude::*;
-
-/// Iso-f_AR levels drawn on Fig. 6 besides the bandwidth, Hz.
-pub const FIG6_LEVELS: [f64; 5] = [80.0, 90.0, 100.0, 110.0, 120.0];
 
 const SERIES: [RGBColor; 5] = [
     RGBColor(0, 0, 0),

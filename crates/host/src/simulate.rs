@@ -36,8 +36,7 @@ pub fn simulate_with_scenario(
 ) -> Result<Vec<Vec<f64>>, HostError> {
     let mut p = *p;
     p.sample_period_s = dt;
-    let plant = Plant::new(&p)
-        .map_err(|e| HostError::input(format!("key `{}` {}", e.field(), e.reason())))?;
+    let plant = Plant::new(&p).map_err(HostError::from)?;
     let mut st = PlantState::REST;
     let mut cols = vec![Vec::with_capacity(volts.len()); SIMULATE_COLUMNS.len()];
     let mut o = plant.outputs(&st);

@@ -3,29 +3,10 @@
 //! settings in `# key: value` lines so that a record says how it was made.
 
 use crate::error::HostError;
-use geared_servo::{ActuatorParams, Effect, Plant, PlantState};
+use geared_servo::{ActuatorParams, Plant, PlantState};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-
-/// Parses `NAME=VALUE` of `--effect`.
-pub fn parse_effect(arg: &str) -> Result<(Effect, f64), HostError> {
-    let (n, v) = arg
-        .split_once('=')
-        .ok_or_else(|| HostError::input(format!("--effect `{arg}`: expected NAME=VALUE")))?;
-    let effect = Effect::from_name(n.trim())
-        .map_err(|e| HostError::input(format!("--effect `{arg}`: {e}")))?;
-    let x: f64 = v
-        .trim()
-        .parse()
-        .map_err(|_| HostError::input(format!("--effect `{arg}`: `{v}` is not a number")))?;
-    if !x.is_finite() {
-        return Err(HostError::input(format!(
-            "--effect `{arg}`: value is not finite"
-        )));
-    }
-    Ok((effect, x))
-}
 
 /// Excitation waveforms.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -261,12 +242,11 @@ pub fn synthesize(p: &ActuatorParams, spec: &SynthSpec) -> Result<Synthetic, Hos
     spec.validate()?;
     let mut p = *p;
     p.sample_period_s = spec.sample_period_s;
-    let plant = Plant::new(&p)
-        .map_err(|e| HostError::input(format!("key `{}` {}", e.field(), e.reason())))?;
+    let plant = Plant::new(&p).map_err(HostError::from)?;
     let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
     let volts = excitation(spec, &mut rng);
     let noise = Normal::new(0.0, spec.tach_noise_v)
-        .map_err(|e| HostError::input(format!("--noise: {e}")))?;
+        .map_err(|e| HostError::input(format!("tachometer noise: {e}")))?;
     let mut st = PlantState::REST;
     let mut o = plant.outputs(&st);
     let mut tach = Vec::with_capacity(volts.len());
@@ -330,15 +310,5 @@ mod tests {
         s2.seed = 8;
         let c = synthesize(&p, &s2).unwrap();
         assert_ne!(a.tach_voltage_v, c.tach_voltage_v);
-    }
-
-    #[test]
-    fn unknown_effect_name_is_bad_input() {
-        assert!(parse_effect("friction=1").is_err());
-        assert!(parse_effect("tach_gain").is_err());
-        assert_eq!(
-            parse_effect("tach_gain=0.1").unwrap(),
-            (Effect::TachGain, 0.1)
-        );
     }
 }
