@@ -12,9 +12,9 @@
 //! itself would only clamp them.
 
 use crate::faults::{
-    ActuatorFaults, BrokenTooth, Jam, SensorFault, Winding, MAX_BACKLASH_WEAR_DEG,
-    MAX_BUS_FACTOR, MAX_FAULT_ANGLE_RAD, MAX_FRICTION_FACTOR, MAX_GAIN_DRIFT,
-    MAX_LOAD_TORQUE_NM, MAX_LOST_LSBS, MAX_NOISE_PEAK_COUNTS,
+    ActuatorFaults, BrokenTooth, Jam, SensorFault, Winding, MAX_BACKLASH_WEAR_DEG, MAX_BUS_FACTOR,
+    MAX_FAULT_ANGLE_RAD, MAX_FRICTION_FACTOR, MAX_GAIN_DRIFT, MAX_LOAD_TORQUE_NM, MAX_LOST_LSBS,
+    MAX_NOISE_PEAK_COUNTS,
 };
 use core::fmt;
 
@@ -134,9 +134,7 @@ impl ScenarioError {
             ScenarioError::NonFinite(f)
             | ScenarioError::Negative(f)
             | ScenarioError::OutOfRange(f) => Some(f),
-            ScenarioError::Full | ScenarioError::OutOfOrder | ScenarioError::Contradiction => {
-                None
-            }
+            ScenarioError::Full | ScenarioError::OutOfOrder | ScenarioError::Contradiction => None,
         }
     }
 }
@@ -163,7 +161,9 @@ impl fmt::Display for ScenarioError {
                     }
                     "BacklashWear" => write!(f, "must be at most {MAX_BACKLASH_WEAR_DEG} degrees"),
                     "FrictionFactor" => write!(f, "must be at most {MAX_FRICTION_FACTOR}"),
-                    "BrokenTooth.width_rad" => f.write_str("must be at most one revolution (2π rad)"),
+                    "BrokenTooth.width_rad" => {
+                        f.write_str("must be at most one revolution (2π rad)")
+                    }
                     "BrokenTooth.torque_loss" => f.write_str("must be at most 1 (all the torque)"),
                     "Sensor.GainDrift" => write!(f, "must be within -1 and {MAX_GAIN_DRIFT}"),
                     "Sensor.NoiseBurst" => {
@@ -411,10 +411,22 @@ mod tests {
             }))
         };
         let cases = [
-            (Fault::FrictionFactor(-1.7e9), "FrictionFactor: must not be negative"),
-            (Fault::FrictionFactor(1e9), "FrictionFactor: must be at most 1000"),
-            (Fault::BacklashWear(-0.1), "BacklashWear: must not be negative"),
-            (Fault::BacklashWear(f32::NAN), "BacklashWear: must be a finite number"),
+            (
+                Fault::FrictionFactor(-1.7e9),
+                "FrictionFactor: must not be negative",
+            ),
+            (
+                Fault::FrictionFactor(1e9),
+                "FrictionFactor: must be at most 1000",
+            ),
+            (
+                Fault::BacklashWear(-0.1),
+                "BacklashWear: must not be negative",
+            ),
+            (
+                Fault::BacklashWear(f32::NAN),
+                "BacklashWear: must be a finite number",
+            ),
             (
                 Fault::LoadTorque(TorqueProfile::Step {
                     amplitude_nm: -1.7e9,
@@ -439,9 +451,18 @@ mod tests {
                 Fault::Jam(Jam::AtAngle(-1.7e9)),
                 "Jam.AtAngle: must be within ±1000000 rad",
             ),
-            (tooth(0.0, 0.1, 2.0), "BrokenTooth.torque_loss: must be at most 1"),
-            (tooth(0.0, -0.1, 0.5), "BrokenTooth.width_rad: must not be negative"),
-            (tooth(f32::NAN, 0.1, 0.5), "BrokenTooth.angle_rad: must be a finite number"),
+            (
+                tooth(0.0, 0.1, 2.0),
+                "BrokenTooth.torque_loss: must be at most 1",
+            ),
+            (
+                tooth(0.0, -0.1, 0.5),
+                "BrokenTooth.width_rad: must not be negative",
+            ),
+            (
+                tooth(f32::NAN, 0.1, 0.5),
+                "BrokenTooth.angle_rad: must be a finite number",
+            ),
             (
                 Fault::Sensor(SensorChannel::Tach, SensorFault::GainDrift(-2.0)),
                 "Sensor.GainDrift: must be within -1 and 1000",

@@ -5,8 +5,8 @@
 //! coverage guidance; this runs on every `cargo test`.
 
 use geared_servo::{
-    ActuatorParams, BrokenTooth, Jam, Outputs, Plant, PlantFaults, PlantState, Stiffness,
-    Winding, REFERENCE,
+    ActuatorParams, BrokenTooth, Jam, Outputs, Plant, PlantFaults, PlantState, Stiffness, Winding,
+    REFERENCE,
 };
 use proptest::prelude::*;
 
@@ -75,27 +75,26 @@ fn faults() -> impl Strategy<Value = PlantFaults> {
         prop::option::of((number(), number(), number())),
         prop::sample::select(vec![Winding::Normal, Winding::Open, Winding::Shorted]),
     )
-        .prop_map(|(torque, jam, wear, friction, tooth, winding)| PlantFaults {
-            load_torque_nm: torque,
-            jam,
-            extra_backlash_deg: wear,
-            friction_factor: friction,
-            broken_tooth: tooth.map(|(angle_rad, width_rad, torque_loss)| BrokenTooth {
-                angle_rad,
-                width_rad,
-                torque_loss,
-            }),
-            winding,
-        })
+        .prop_map(
+            |(torque, jam, wear, friction, tooth, winding)| PlantFaults {
+                load_torque_nm: torque,
+                jam,
+                extra_backlash_deg: wear,
+                friction_factor: friction,
+                broken_tooth: tooth.map(|(angle_rad, width_rad, torque_loss)| BrokenTooth {
+                    angle_rad,
+                    width_rad,
+                    torque_loss,
+                }),
+                winding,
+            },
+        )
 }
 
 /// Steps of a fault sequence: each fault set held for 1–80 steps (a runaway needs a few
 /// dozen steps to overflow) under random commands.
 fn sequence() -> impl Strategy<Value = Vec<(PlantFaults, Vec<f32>)>> {
-    prop::collection::vec(
-        (faults(), prop::collection::vec(number(), 1..80)),
-        1..12,
-    )
+    prop::collection::vec((faults(), prop::collection::vec(number(), 1..80)), 1..12)
 }
 
 fn all_finite(o: &Outputs, s: &PlantState) -> bool {

@@ -187,27 +187,64 @@ fn out_of_range_fault_values_act_as_their_documented_bounds() {
         }
         s
     };
-    let with = |edit: &dyn Fn(&mut PlantFaults)| {
-        let mut f = PlantFaults {
-            load_torque_nm: 0.01,
-            ..PlantFaults::NONE
-        };
-        edit(&mut f);
-        run(&f)
+    // A small load torque keeps the context a faulty one in every pair.
+    let base = PlantFaults {
+        load_torque_nm: 0.01,
+        ..PlantFaults::NONE
     };
-    let pairs: [(&str, &dyn Fn(&mut PlantFaults), &dyn Fn(&mut PlantFaults)); 5] = [
-        ("friction -5", &|f| f.friction_factor = -5.0, &|f| f.friction_factor = 0.0),
-        ("friction NaN", &|f| f.friction_factor = f32::NAN, &|_| {}),
-        ("wear -3", &|f| f.extra_backlash_deg = -3.0, &|_| {}),
-        ("wear 1e9", &|f| f.extra_backlash_deg = 1e9, &|f| {
-            f.extra_backlash_deg = MAX_BACKLASH_WEAR_DEG
-        }),
-        ("torque -1.7e9", &|f| f.load_torque_nm = -1.7e9, &|f| {
-            f.load_torque_nm = -MAX_LOAD_TORQUE_NM
-        }),
+    let pairs = [
+        (
+            "friction -5",
+            PlantFaults {
+                friction_factor: -5.0,
+                ..base
+            },
+            PlantFaults {
+                friction_factor: 0.0,
+                ..base
+            },
+        ),
+        (
+            "friction NaN",
+            PlantFaults {
+                friction_factor: f32::NAN,
+                ..base
+            },
+            base,
+        ),
+        (
+            "wear -3",
+            PlantFaults {
+                extra_backlash_deg: -3.0,
+                ..base
+            },
+            base,
+        ),
+        (
+            "wear 1e9",
+            PlantFaults {
+                extra_backlash_deg: 1e9,
+                ..base
+            },
+            PlantFaults {
+                extra_backlash_deg: MAX_BACKLASH_WEAR_DEG,
+                ..base
+            },
+        ),
+        (
+            "torque -1.7e9",
+            PlantFaults {
+                load_torque_nm: -1.7e9,
+                ..base
+            },
+            PlantFaults {
+                load_torque_nm: -MAX_LOAD_TORQUE_NM,
+                ..base
+            },
+        ),
     ];
     for (what, bad, bound) in pairs {
-        assert_eq!(with(bad), with(bound), "{what}");
+        assert_eq!(run(&bad), run(&bound), "{what}");
     }
 }
 

@@ -42,6 +42,7 @@
 //! function is proved in `host-tests/tests/plant_accuracy.rs`.
 
 mod events;
+mod faulty;
 mod modes;
 mod sine;
 mod step;
@@ -144,15 +145,6 @@ impl PlantState {
         self.load_speed_rad_s = s[WL];
         self.twist_rad = s[X];
         self.load_angle_rad = s[TH];
-    }
-}
-
-/// Clamps every variable of a state after a faulty step to ±[`MAX_ABS_FAULT_STATE`], a
-/// non-finite one to 0. Out of line: it runs on the fault path only.
-#[inline(never)]
-fn bound_state(s: &mut Vec5) {
-    for v in s.iter_mut() {
-        *v = step::sane(*v, 0.0, -MAX_ABS_FAULT_STATE, MAX_ABS_FAULT_STATE);
     }
 }
 
@@ -403,7 +395,7 @@ impl Plant {
         if let Jam::AtAngle(a) = faults.jam {
             // Reached the block within the step: held exactly there; the motor side keeps
             // its angle, so the twist takes up the difference.
-            if let Some(a) = step::jam_angle(a) {
+            if let Some(a) = faulty::jam_angle(a) {
                 let (d0, d1) = (s0[TH] - a, s1[TH] - a);
                 if !c.jammed && (d1 == 0.0 || (d0 > 0.0) != (d1 > 0.0)) {
                     s1[X] += s1[TH] - a;
@@ -413,7 +405,7 @@ impl Plant {
             }
         }
         if !nominal {
-            bound_state(&mut s1);
+            faulty::bound_state(&mut s1);
         }
         state.set(&s1);
         // Without a delay both parts are the command, and this mean is exactly it.

@@ -34,8 +34,8 @@
 use crate::error::{shown, HostError};
 use geared_servo::faults::{
     BrokenTooth, Jam, SensorFault, Winding, MAX_BACKLASH_WEAR_DEG, MAX_BUS_FACTOR,
-    MAX_FAULT_ANGLE_RAD, MAX_FRICTION_FACTOR, MAX_GAIN_DRIFT, MAX_LOAD_TORQUE_NM,
-    MAX_LOST_LSBS, MAX_NOISE_PEAK_COUNTS,
+    MAX_FAULT_ANGLE_RAD, MAX_FRICTION_FACTOR, MAX_GAIN_DRIFT, MAX_LOAD_TORQUE_NM, MAX_LOST_LSBS,
+    MAX_NOISE_PEAK_COUNTS,
 };
 use geared_servo::scenario::{Fault, Scenario, ScenarioError, SensorChannel, TorqueProfile};
 use serde::Deserialize;
@@ -333,7 +333,9 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
                         _ => {
                             let b = e.bits.ok_or_else(|| here(format!("`{k}` needs `bits`")))?;
                             if b > MAX_LOST_LSBS {
-                                return Err(here(format!("`bits` must be at most {MAX_LOST_LSBS}")));
+                                return Err(here(format!(
+                                    "`bits` must be at most {MAX_LOST_LSBS}"
+                                )));
                             }
                             SensorFault::LostLsbs(b)
                         }

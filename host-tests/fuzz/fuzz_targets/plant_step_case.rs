@@ -3,8 +3,7 @@
 //! path libFuzzer ran: 16 bytes of parameters, then (voltage, fault) pairs of raw `f32` bits.
 
 use geared_servo::{
-    ActuatorParams, BrokenTooth, Jam, Plant, PlantFaults, PlantState, Stiffness, Winding,
-    REFERENCE,
+    ActuatorParams, BrokenTooth, Jam, Plant, PlantFaults, PlantState, Stiffness, Winding, REFERENCE,
 };
 
 /// Reads f32s from raw bits: every bit pattern, including NaN payloads and subnormals.
