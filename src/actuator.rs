@@ -113,7 +113,7 @@ impl VirtualActuator {
                 None => self.drive.voltage_v(),
             };
             let bus = if f.bus_factor.is_finite() {
-                f.bus_factor.clamp(0.0, 10.0)
+                f.bus_factor.clamp(0.0, crate::faults::MAX_BUS_FACTOR)
             } else {
                 1.0
             };

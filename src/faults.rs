@@ -4,6 +4,40 @@
 //! same call with [`PlantFaults::NONE`], so a fault that is off costs a comparison. Sensor and
 //! drive-electronics faults (stuck sensors, bus sag, PWM stuck) belong to the firmware-facing
 //! actuator, which reads and commands this plant.
+//!
+//! Every value a caller can put in these types is safe to step with: out-of-range numbers
+//! are clamped to the physical range each field's documentation states, NaN means "this
+//! fault off". The bounds below are the one list of those ranges; the scenario builders
+//! ([`crate::scenario::Scenario::push`]) and the host's scenario files refuse values beyond
+//! them instead of clamping.
+
+/// Largest external load torque, N·m (a thousand times the hinge moment a fin actuator
+/// meets, far beyond anything a gear train survives).
+pub const MAX_LOAD_TORQUE_NM: f32 = 1.0e6;
+
+/// Largest factor on the Coulomb frictions.
+pub const MAX_FRICTION_FACTOR: f32 = 1.0e3;
+
+/// Largest magnitude of a fault's load angle (jam angle, broken-tooth centre), rad: about
+/// 160 000 revolutions, where an `f32` angle resolves no better than 0.06 rad.
+pub const MAX_FAULT_ANGLE_RAD: f32 = 1.0e6;
+
+/// Largest worn backlash, degrees at the load (the parameters' own limit,
+/// [`crate::params::MAX_BACKLASH_DEG`]).
+pub const MAX_BACKLASH_WEAR_DEG: f32 = crate::params::MAX_BACKLASH_DEG as f32;
+
+/// Largest relative gain error of a sensor ([`SensorFault::GainDrift`]); the smallest is −1
+/// (the channel reads zero).
+pub const MAX_GAIN_DRIFT: f32 = 1.0e3;
+
+/// Largest peak of a [`SensorFault::NoiseBurst`], counts.
+pub const MAX_NOISE_PEAK_COUNTS: f32 = 1.0e9;
+
+/// Largest number of lost low bits ([`SensorFault::LostLsbs`]): every bit of a 32-bit count.
+pub const MAX_LOST_LSBS: u8 = 31;
+
+/// Largest factor on the bridge's bus voltage.
+pub const MAX_BUS_FACTOR: f32 = 10.0;
 
 /// How the load is jammed.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -16,7 +50,8 @@ pub enum Jam {
     /// gap and the gear stiffness.
     Here,
     /// Blocked at this load angle, rad: it moves freely until it reaches the angle, then is
-    /// held there as with [`Jam::Here`].
+    /// held there as with [`Jam::Here`]. Clamped to ±[`MAX_FAULT_ANGLE_RAD`]; NaN or ±∞
+    /// blocks nothing.
     AtAngle(f32),
 }
 
@@ -39,10 +74,13 @@ pub enum Winding {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct BrokenTooth {
     /// Load angle at the centre of the missing tooth, rad (taken modulo one revolution).
+    /// Clamped to ±[`MAX_FAULT_ANGLE_RAD`]; NaN or ±∞ is taken as 0.
     pub angle_rad: f32,
     /// Angular width of the window, rad at the load (about one tooth pitch, 2π / teeth).
+    /// Clamped to 0–2π; NaN or ±∞ is taken as 0 (no window).
     pub width_rad: f32,
-    /// Fraction of the transmitted torque lost inside the window, 0–1.
+    /// Fraction of the transmitted torque lost inside the window, 0–1 (clamped to it; NaN
+    /// or ±∞ is taken as 0, no loss).
     pub torque_loss: f32,
 }
 
@@ -52,13 +90,15 @@ pub struct BrokenTooth {
 pub struct PlantFaults {
     /// External torque on the load (gust, hinge-moment step), N·m, positive in the
     /// direction of positive load angle. Held over each step; change it step by step for a
-    /// profile.
+    /// profile. Clamped to ±[`MAX_LOAD_TORQUE_NM`]; NaN or ±∞ is taken as 0.
     pub load_torque_nm: f32,
     /// Load jam.
     pub jam: Jam,
-    /// Backlash added by wear, degrees of total backlash at the load (≥ 0).
+    /// Backlash added by wear, degrees of total backlash at the load. Clamped to
+    /// 0–[`MAX_BACKLASH_WEAR_DEG`] (wear does not close a gap); NaN or ±∞ is taken as 0.
     pub extra_backlash_deg: f32,
-    /// Factor on both Coulomb frictions (1 = nominal, ≥ 0).
+    /// Factor on both Coulomb frictions (1 = nominal). Clamped to 0–[`MAX_FRICTION_FACTOR`]
+    /// (negative friction would feed energy in); NaN or ±∞ is taken as 1.
     pub friction_factor: f32,
     /// Broken output-gear tooth, if any.
     pub broken_tooth: Option<BrokenTooth>,
@@ -95,13 +135,15 @@ pub enum SensorFault {
     /// Adds this many counts.
     Offset(i32),
     /// Relative error of the sensitivity: the physical value is scaled by `1 + drift`
-    /// before conversion (0.1 = reads 10 % high).
+    /// before conversion (0.1 = reads 10 % high). Clamped to −1–[`MAX_GAIN_DRIFT`]; NaN or
+    /// ±∞ is taken as 0.
     GainDrift(f32),
     /// Reads zero (`false`) or full scale (`true`; for the encoder, `i32::MAX`).
     Dropout(bool),
     /// Adds uniform noise of this peak, counts (deterministic, from the sensors' seed).
+    /// Clamped to 0–[`MAX_NOISE_PEAK_COUNTS`]; NaN or ±∞ is taken as 0.
     NoiseBurst(f32),
-    /// The lowest this-many bits read as zero.
+    /// The lowest this-many bits read as zero (63 or more: all of them).
     LostLsbs(u8),
 }
 
@@ -117,7 +159,8 @@ pub struct ActuatorFaults {
     pub pot: SensorFault,
     /// Quadrature encoder count.
     pub encoder: SensorFault,
-    /// Factor on the bridge's bus voltage (1 = nominal; 0.7 = a 30 % sag).
+    /// Factor on the bridge's bus voltage (1 = nominal; 0.7 = a 30 % sag). Clamped to
+    /// 0–[`MAX_BUS_FACTOR`]; NaN or ±∞ is taken as 1.
     pub bus_factor: f32,
     /// The bridge ignores duty commands and applies this signed duty, counts.
     pub pwm_stuck: Option<i32>,
@@ -167,7 +210,7 @@ impl SensorFault {
             }
             SensorFault::NoiseBurst(peak) => {
                 let n = if peak.is_finite() {
-                    peak.clamp(0.0, 1.0e9) * noise
+                    peak.clamp(0.0, MAX_NOISE_PEAK_COUNTS) * noise
                 } else {
                     0.0
                 };
@@ -186,7 +229,7 @@ impl SensorFault {
     /// The pre-conversion scale of the physical value (1 unless [`SensorFault::GainDrift`]).
     pub fn gain(&self) -> f32 {
         match *self {
-            SensorFault::GainDrift(g) if g.is_finite() => 1.0 + g.clamp(-1.0, 1.0e3),
+            SensorFault::GainDrift(g) if g.is_finite() => 1.0 + g.clamp(-1.0, MAX_GAIN_DRIFT),
             _ => 1.0,
         }
     }

@@ -5,8 +5,18 @@
 //! pushes at start-up); on the host `geared-servo simulate --scenario FILE.toml` reads one.
 //! Each step, [`Scenario::advance`] fires the events due at that step, in the order they were
 //! scheduled, and returns the faults in force.
+//!
+//! A scheduled fault's values are validated where it is scheduled ([`Fault::validate`]):
+//! NaN, ±∞, a negative friction factor or wear, and magnitudes beyond the bounds in
+//! [`crate::faults`] are refused with a [`ScenarioError`] naming the field, where the step
+//! itself would only clamp them.
 
-use crate::faults::{ActuatorFaults, BrokenTooth, Jam, SensorFault, Winding};
+use crate::faults::{
+    ActuatorFaults, BrokenTooth, Jam, SensorFault, Winding, MAX_BACKLASH_WEAR_DEG, MAX_BUS_FACTOR,
+    MAX_FAULT_ANGLE_RAD, MAX_FRICTION_FACTOR, MAX_GAIN_DRIFT, MAX_LOAD_TORQUE_NM, MAX_LOST_LSBS,
+    MAX_NOISE_PEAK_COUNTS,
+};
+use core::fmt;
 
 /// Shape of an external torque on the load over time.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -96,7 +106,8 @@ pub struct Event {
     pub fault: Fault,
 }
 
-/// Why an event could not be scheduled.
+/// Why an event could not be scheduled. The value variants carry the offending field as
+/// `Variant.field` of [`Fault`] (`"BrokenTooth.torque_loss"`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
@@ -107,19 +118,136 @@ pub enum ScenarioError {
     OutOfOrder,
     /// The event contradicts another at the same step (e.g. an open and a shorted winding).
     Contradiction,
+    /// A fault's value is NaN or infinite.
+    NonFinite(&'static str),
+    /// A fault's value is negative where only zero or a positive value is physical.
+    Negative(&'static str),
+    /// A fault's value is finite and signed correctly but beyond its physical range (the
+    /// bounds in [`crate::faults`]).
+    OutOfRange(&'static str),
 }
 
-impl core::fmt::Display for ScenarioError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.write_str(match self {
-            ScenarioError::Full => "more events than the scenario's capacity",
-            ScenarioError::OutOfOrder => "events must be in step order",
-            ScenarioError::Contradiction => "contradicts another event at the same step",
-        })
+impl ScenarioError {
+    /// The offending field of a value error (`"FrictionFactor"`), `None` for the others.
+    pub const fn field(&self) -> Option<&'static str> {
+        match *self {
+            ScenarioError::NonFinite(f)
+            | ScenarioError::Negative(f)
+            | ScenarioError::OutOfRange(f) => Some(f),
+            ScenarioError::Full | ScenarioError::OutOfOrder | ScenarioError::Contradiction => None,
+        }
+    }
+}
+
+impl fmt::Display for ScenarioError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            ScenarioError::Full => f.write_str("more events than the scenario's capacity"),
+            ScenarioError::OutOfOrder => f.write_str("events must be in step order"),
+            ScenarioError::Contradiction => {
+                f.write_str("contradicts another event at the same step")
+            }
+            ScenarioError::NonFinite(field) => write!(f, "{field}: must be a finite number"),
+            ScenarioError::Negative(field) => write!(f, "{field}: must not be negative"),
+            ScenarioError::OutOfRange(field) => {
+                write!(f, "{field}: ")?;
+                match field {
+                    "LoadTorque.amplitude_nm" => {
+                        write!(f, "must be within ±{MAX_LOAD_TORQUE_NM} N·m")
+                    }
+                    "LoadTorque.duration_steps" => f.write_str("must be at least one step"),
+                    "Jam.AtAngle" | "BrokenTooth.angle_rad" => {
+                        write!(f, "must be within ±{MAX_FAULT_ANGLE_RAD} rad")
+                    }
+                    "BacklashWear" => write!(f, "must be at most {MAX_BACKLASH_WEAR_DEG} degrees"),
+                    "FrictionFactor" => write!(f, "must be at most {MAX_FRICTION_FACTOR}"),
+                    "BrokenTooth.width_rad" => {
+                        f.write_str("must be at most one revolution (2π rad)")
+                    }
+                    "BrokenTooth.torque_loss" => f.write_str("must be at most 1 (all the torque)"),
+                    "Sensor.GainDrift" => write!(f, "must be within -1 and {MAX_GAIN_DRIFT}"),
+                    "Sensor.NoiseBurst" => {
+                        write!(f, "must be at most {MAX_NOISE_PEAK_COUNTS} counts")
+                    }
+                    "Sensor.LostLsbs" => write!(f, "must be at most {MAX_LOST_LSBS} bits"),
+                    "BusSag" => write!(f, "must be at most {MAX_BUS_FACTOR}"),
+                    _ => f.write_str("is outside its physical range"),
+                }
+            }
+        }
     }
 }
 
 impl core::error::Error for ScenarioError {}
+
+/// `x` within [lo, hi], finite; a negative value where `lo` is 0 is [`ScenarioError::Negative`].
+fn check(x: f32, lo: f32, hi: f32, field: &'static str) -> Result<(), ScenarioError> {
+    if !x.is_finite() {
+        Err(ScenarioError::NonFinite(field))
+    } else if x < 0.0 && lo == 0.0 {
+        Err(ScenarioError::Negative(field))
+    } else if x < lo || x > hi {
+        Err(ScenarioError::OutOfRange(field))
+    } else {
+        Ok(())
+    }
+}
+
+impl Fault {
+    /// Whether every value of the fault is within its physical range (the bounds in
+    /// [`crate::faults`]); the error names the first field that is not.
+    pub fn validate(&self) -> Result<(), ScenarioError> {
+        let angle = MAX_FAULT_ANGLE_RAD;
+        match *self {
+            Fault::LoadTorque(TorqueProfile::Step { amplitude_nm }) => check(
+                amplitude_nm,
+                -MAX_LOAD_TORQUE_NM,
+                MAX_LOAD_TORQUE_NM,
+                "LoadTorque.amplitude_nm",
+            ),
+            Fault::LoadTorque(TorqueProfile::Gust {
+                amplitude_nm,
+                duration_steps,
+            }) => {
+                check(
+                    amplitude_nm,
+                    -MAX_LOAD_TORQUE_NM,
+                    MAX_LOAD_TORQUE_NM,
+                    "LoadTorque.amplitude_nm",
+                )?;
+                if duration_steps == 0 {
+                    return Err(ScenarioError::OutOfRange("LoadTorque.duration_steps"));
+                }
+                Ok(())
+            }
+            Fault::Jam(Jam::AtAngle(a)) => check(a, -angle, angle, "Jam.AtAngle"),
+            Fault::BacklashWear(w) => check(w, 0.0, MAX_BACKLASH_WEAR_DEG, "BacklashWear"),
+            Fault::FrictionFactor(k) => check(k, 0.0, MAX_FRICTION_FACTOR, "FrictionFactor"),
+            Fault::BrokenTooth(Some(t)) => {
+                check(t.angle_rad, -angle, angle, "BrokenTooth.angle_rad")?;
+                let tau = core::f32::consts::TAU;
+                check(t.width_rad, 0.0, tau, "BrokenTooth.width_rad")?;
+                check(t.torque_loss, 0.0, 1.0, "BrokenTooth.torque_loss")
+            }
+            Fault::Sensor(_, SensorFault::GainDrift(g)) => {
+                check(g, -1.0, MAX_GAIN_DRIFT, "Sensor.GainDrift")
+            }
+            Fault::Sensor(_, SensorFault::NoiseBurst(p)) => {
+                check(p, 0.0, MAX_NOISE_PEAK_COUNTS, "Sensor.NoiseBurst")
+            }
+            Fault::Sensor(_, SensorFault::LostLsbs(bits)) if bits > MAX_LOST_LSBS => {
+                Err(ScenarioError::OutOfRange("Sensor.LostLsbs"))
+            }
+            Fault::BusSag(k) => check(k, 0.0, MAX_BUS_FACTOR, "BusSag"),
+            Fault::ClearLoadTorque
+            | Fault::Jam(_)
+            | Fault::BrokenTooth(None)
+            | Fault::Winding(_)
+            | Fault::Sensor(..)
+            | Fault::PwmStuck(_) => Ok(()),
+        }
+    }
+}
 
 /// A schedule of up to `N` events and the faults they have put in force.
 #[derive(Clone, Debug)]
@@ -147,9 +275,11 @@ impl<const N: usize> Scenario<N> {
         }
     }
 
-    /// Schedules `fault` from step `step` on. Events must come in step order; two events at
-    /// the same step may not set the same fault to different values.
+    /// Schedules `fault` from step `step` on. Its values must be within their physical range
+    /// ([`Fault::validate`]); events must come in step order; two events at the same step
+    /// may not set the same fault to different values.
     pub fn push(&mut self, step: u32, fault: Fault) -> Result<(), ScenarioError> {
+        fault.validate()?;
         if let Some(last) = self.events.last() {
             if step < last.step {
                 return Err(ScenarioError::OutOfOrder);
@@ -267,6 +397,94 @@ mod tests {
         );
         s.push(4, Fault::Jam(Jam::Here)).unwrap();
         assert_eq!(s.push(9, Fault::Jam(Jam::None)), Err(ScenarioError::Full));
+    }
+
+    #[test]
+    fn meaningless_fault_values_are_refused_naming_the_field() {
+        extern crate std;
+        use std::string::ToString;
+        let tooth = |angle_rad, width_rad, torque_loss| {
+            Fault::BrokenTooth(Some(BrokenTooth {
+                angle_rad,
+                width_rad,
+                torque_loss,
+            }))
+        };
+        let cases = [
+            (
+                Fault::FrictionFactor(-1.7e9),
+                "FrictionFactor: must not be negative",
+            ),
+            (
+                Fault::FrictionFactor(1e9),
+                "FrictionFactor: must be at most 1000",
+            ),
+            (
+                Fault::BacklashWear(-0.1),
+                "BacklashWear: must not be negative",
+            ),
+            (
+                Fault::BacklashWear(f32::NAN),
+                "BacklashWear: must be a finite number",
+            ),
+            (
+                Fault::LoadTorque(TorqueProfile::Step {
+                    amplitude_nm: -1.7e9,
+                }),
+                "LoadTorque.amplitude_nm: must be within ±1000000 N·m",
+            ),
+            (
+                Fault::LoadTorque(TorqueProfile::Gust {
+                    amplitude_nm: f32::INFINITY,
+                    duration_steps: 4,
+                }),
+                "LoadTorque.amplitude_nm: must be a finite number",
+            ),
+            (
+                Fault::LoadTorque(TorqueProfile::Gust {
+                    amplitude_nm: 1.0,
+                    duration_steps: 0,
+                }),
+                "LoadTorque.duration_steps: must be at least one step",
+            ),
+            (
+                Fault::Jam(Jam::AtAngle(-1.7e9)),
+                "Jam.AtAngle: must be within ±1000000 rad",
+            ),
+            (
+                tooth(0.0, 0.1, 2.0),
+                "BrokenTooth.torque_loss: must be at most 1",
+            ),
+            (
+                tooth(0.0, -0.1, 0.5),
+                "BrokenTooth.width_rad: must not be negative",
+            ),
+            (
+                tooth(f32::NAN, 0.1, 0.5),
+                "BrokenTooth.angle_rad: must be a finite number",
+            ),
+            (
+                Fault::Sensor(SensorChannel::Tach, SensorFault::GainDrift(-2.0)),
+                "Sensor.GainDrift: must be within -1 and 1000",
+            ),
+            (
+                Fault::Sensor(SensorChannel::Pot, SensorFault::NoiseBurst(-1.0)),
+                "Sensor.NoiseBurst: must not be negative",
+            ),
+            (
+                Fault::Sensor(SensorChannel::Encoder, SensorFault::LostLsbs(40)),
+                "Sensor.LostLsbs: must be at most 31 bits",
+            ),
+            (Fault::BusSag(11.0), "BusSag: must be at most 10"),
+        ];
+        for (fault, want) in cases {
+            let mut s: Scenario<2> = Scenario::new();
+            let e = s.push(1, fault).unwrap_err();
+            let msg = e.to_string();
+            assert!(msg.starts_with(want), "{fault:?}: `{msg}`");
+            assert_eq!(e.field(), msg.split(':').next());
+            assert!(s.events().is_empty());
+        }
     }
 
     #[test]

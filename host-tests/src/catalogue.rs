@@ -185,6 +185,17 @@ fn scenario_rows() -> Vec<Row> {
         ("an unknown key", ev("at_s = 0.1\napply = \"jam\"\nspeed = 3")),
         ("a value out of range", ev("at_s = 0.1\napply = \"broken_tooth\"\nangle_deg = 0\nwidth_deg = 3\ntorque_loss = 2")),
         ("a negative time", ev("at_s = -1\napply = \"jam\"")),
+        ("a negative friction factor", ev("at_s = 0.1\napply = \"friction_factor\"\nfactor = -1.7e9")),
+        ("a friction factor beyond 1000", ev("at_s = 0.1\napply = \"friction_factor\"\nfactor = 1e9")),
+        ("negative backlash wear", ev("at_s = 0.1\napply = \"backlash_wear\"\nextra_deg = -0.5")),
+        ("a load torque beyond ±1e6 N·m", ev("at_s = 0.1\napply = \"load_torque\"\namplitude_nm = -1.7e9")),
+        ("a non-finite load torque", ev("at_s = 0.1\napply = \"load_torque\"\namplitude_nm = nan")),
+        ("a jam angle beyond ±1e6 rad", ev("at_s = 0.1\napply = \"jam\"\nangle_deg = -1e11")),
+        ("an infinite jam angle", ev("at_s = 0.1\napply = \"jam\"\nangle_deg = inf")),
+        ("a broken tooth wider than a revolution", ev("at_s = 0.1\napply = \"broken_tooth\"\nangle_deg = 0\nwidth_deg = 400\ntorque_loss = 0.5")),
+        ("a sensor gain error below −100 %", ev("at_s = 0.1\napply = \"tach_gain\"\ndrift = -2")),
+        ("sensor noise beyond 1e9 counts", ev("at_s = 0.1\napply = \"pot_noise\"\npeak_counts = 1e12")),
+        ("a bus voltage factor beyond 10", ev("at_s = 0.1\napply = \"bus_sag\"\nfactor = 11")),
         ("more events than the capacity (64)", {
             let mut t = String::new();
             for k in 0..=scenario_file::CAPACITY {
@@ -268,7 +279,9 @@ pub fn markdown() -> String {
          Usage errors found by the argument parser print their reason and\n\
          `(see geared-servo --help)` instead, also on one line.\n\
          In firmware the same parameter checks return `ParamError`, whose `Display` is the\n\
-         key and the reason (`motor.resistance_ohm: must be greater than zero`).\n",
+         key and the reason (`motor.resistance_ohm: must be greater than zero`); a fault\n\
+         scenario built with `Scenario::push` gets a `ScenarioError` the same way\n\
+         (`FrictionFactor: must not be negative`).\n",
     );
     for (title, rows) in catalogue() {
         s += &format!("\n## {title}\n\n| input | exit | message |\n|---|---|---|\n");

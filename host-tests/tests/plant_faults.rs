@@ -1,5 +1,7 @@
 //! Plant faults do exactly what they say, and stop when cleared.
 
+use geared_servo::faults::{MAX_BACKLASH_WEAR_DEG, MAX_LOAD_TORQUE_NM};
+use geared_servo::plant::MAX_ABS_FAULT_STATE;
 use geared_servo::{BrokenTooth, Jam, Plant, PlantFaults, PlantState, Winding, REFERENCE};
 
 fn plant() -> Plant {
@@ -135,6 +137,151 @@ fn open_winding_carries_no_current_and_the_rotor_coasts() {
     assert_eq!(shorted, s);
     // The shorted motor brakes (back-EMF current), the open one only coasts on friction.
     assert!(open.motor_speed_rad_s > shorted.motor_speed_rad_s);
+}
+
+/// An open winding carries no current, so the rotor must move as that of a motor without a
+/// winding (torque and back-EMF constants 1e-9) does. Zero backlash (contact events would
+/// make the two runs drift apart by their timing alone); 200 steps from a spun-up state.
+/// Bound 1 % of the starting speed: measured 0.25 %; holding the back-EMF of each step's
+/// start instead (the earlier model, which the fuzzer drove to overflow) gives 2.4 %.
+#[test]
+fn open_winding_coasts_like_a_motor_without_a_winding() {
+    let p = REFERENCE.with_backlash_deg(0.0);
+    let plant = Plant::new(&p).unwrap();
+    let mut q = p;
+    q.motor.torque_constant_nm_per_a = 1e-9;
+    q.motor.back_emf_v_s_per_rad = 1e-9;
+    let bare = Plant::new(&q).unwrap();
+    let mut s = PlantState::REST;
+    for k in 0..400 {
+        plant.step(&mut s, 10.0 * (k as f32 * 0.05).sin() + 5.0);
+    }
+    let w0 = s.motor_speed_rad_s;
+    s.current_a = 0.0;
+    let (mut open, mut coast) = (s, s);
+    let f = PlantFaults {
+        winding: Winding::Open,
+        ..PlantFaults::NONE
+    };
+    let mut worst = 0.0f32;
+    for _ in 0..200 {
+        plant.step_with_faults(&mut open, 3.0, &f);
+        bare.step(&mut coast, 0.0);
+        worst = worst.max((open.motor_speed_rad_s - coast.motor_speed_rad_s).abs());
+    }
+    assert!(w0 > 100.0, "spun up: {w0}");
+    assert!(worst <= 0.01 * w0, "speed apart by {worst} rad/s of {w0}");
+}
+
+/// Each out-of-range fault value acts exactly as the bound its field documents: a negative
+/// friction factor as frictionless, wear below zero as none, wear or a torque beyond its
+/// bound as that bound, NaN as the fault off.
+#[test]
+fn out_of_range_fault_values_act_as_their_documented_bounds() {
+    let p = plant();
+    let start = spun_up(&p, 10.0, 100);
+    let run = |f: &PlantFaults| {
+        let mut s = start;
+        for k in 0..200 {
+            p.step_with_faults(&mut s, if k < 100 { -10.0 } else { 10.0 }, f);
+        }
+        s
+    };
+    // A small load torque keeps the context a faulty one in every pair.
+    let base = PlantFaults {
+        load_torque_nm: 0.01,
+        ..PlantFaults::NONE
+    };
+    let pairs = [
+        (
+            "friction -5",
+            PlantFaults {
+                friction_factor: -5.0,
+                ..base
+            },
+            PlantFaults {
+                friction_factor: 0.0,
+                ..base
+            },
+        ),
+        (
+            "friction NaN",
+            PlantFaults {
+                friction_factor: f32::NAN,
+                ..base
+            },
+            base,
+        ),
+        (
+            "wear -3",
+            PlantFaults {
+                extra_backlash_deg: -3.0,
+                ..base
+            },
+            base,
+        ),
+        (
+            "wear 1e9",
+            PlantFaults {
+                extra_backlash_deg: 1e9,
+                ..base
+            },
+            PlantFaults {
+                extra_backlash_deg: MAX_BACKLASH_WEAR_DEG,
+                ..base
+            },
+        ),
+        (
+            "torque -1.7e9",
+            PlantFaults {
+                load_torque_nm: -1.7e9,
+                ..base
+            },
+            PlantFaults {
+                load_torque_nm: -MAX_LOAD_TORQUE_NM,
+                ..base
+            },
+        ),
+    ];
+    for (what, bad, bound) in pairs {
+        assert_eq!(run(&bad), run(&bound), "{what}");
+    }
+}
+
+/// The last resort: a faulty step returns even a state the caller made non-finite or
+/// absurd to within ±MAX_ABS_FAULT_STATE, and the plain steps after it stay finite.
+#[test]
+fn a_faulty_step_bounds_any_state_it_is_given() {
+    let p = plant();
+    let mut s = PlantState::REST;
+    s.current_a = 1e30;
+    s.motor_speed_rad_s = f32::NAN;
+    s.load_speed_rad_s = -3e38;
+    s.twist_rad = f32::INFINITY;
+    s.load_angle_rad = f32::NEG_INFINITY;
+    let f = PlantFaults {
+        friction_factor: 2.0,
+        ..PlantFaults::NONE
+    };
+    p.step_with_faults(&mut s, 10.0, &f);
+    let vars = |s: &PlantState| {
+        [
+            s.current_a,
+            s.motor_speed_rad_s,
+            s.load_speed_rad_s,
+            s.twist_rad,
+            s.load_angle_rad,
+        ]
+    };
+    assert!(
+        vars(&s).iter().all(|v| v.abs() <= MAX_ABS_FAULT_STATE),
+        "{s:?}"
+    );
+    for _ in 0..100 {
+        let o = p.step(&mut s, 10.0);
+        assert!(vars(&s).iter().all(|v| v.is_finite()), "{s:?}");
+        assert!(o.tach_voltage_v.is_finite() && o.transmitted_torque_nm.is_finite());
+    }
 }
 
 #[test]

@@ -42,6 +42,7 @@
 //! function is proved in `host-tests/tests/plant_accuracy.rs`.
 
 mod events;
+mod faulty;
 mod modes;
 mod sine;
 mod step;
@@ -64,6 +65,15 @@ pub const MIN_SUB_STEPS: usize = 8;
 /// Most sub-steps a step is split into (sample periods far longer than the mechanical
 /// periods, such as a bench record at 5.6 ms of a stiff gear train).
 pub const MAX_SUB_STEPS: usize = 1024;
+
+/// Largest magnitude of any state variable after a step with faults (A, rad/s, rad). No
+/// fault setting is expected to come near it (fault values are clamped to their physical
+/// range, and an open winding does no net work over a step); it is the last resort that
+/// keeps the state finite should some combination of extreme parameters and faults still
+/// run away: a faulty step clamps each variable to it, and a NaN or ±∞ to 0. Far enough
+/// below `f32::MAX` that the products of a later step with the transition coefficients do
+/// not overflow (`host-tests/tests/fault_finiteness.rs`).
+pub const MAX_ABS_FAULT_STATE: f32 = 1.0e12;
 
 /// Largest `effects.input_delay`, in sample periods.
 pub const MAX_DELAY_STEPS: usize = 16;
@@ -328,8 +338,11 @@ impl Plant {
     }
 
     /// [`Plant::step`] with run-time faults of the mechanics and the winding (see
-    /// [`PlantFaults`]). Out-of-range fault values are clamped to their physical range, so
-    /// no fault setting makes the step fail.
+    /// [`PlantFaults`]). Out-of-range fault values are clamped to the physical range each
+    /// field documents (NaN: that fault off), so no fault setting makes the step fail, and
+    /// the state stays finite whatever the faults and the command: a faulty step leaves
+    /// every state variable within ±[`MAX_ABS_FAULT_STATE`]. With [`PlantFaults::NONE`] it
+    /// is bit-identical to [`Plant::step`].
     pub fn step_with_faults(
         &self,
         state: &mut PlantState,
@@ -360,12 +373,9 @@ impl Plant {
         match faults.winding {
             Winding::Normal => {}
             Winding::Shorted => (v_early, v_late) = (0.0, 0.0),
-            Winding::Open => {
-                // No current: the winding's voltage is the back-EMF, nothing drives a current.
-                s0[I] = 0.0;
-                let v = self.kb * s0[WM];
-                (v_early, v_late) = (v, v);
-            }
+            // No current: the winding's voltage is the back-EMF (set below, once the
+            // context is known), nothing drives a current.
+            Winding::Open => s0[I] = 0.0,
         }
         if faults.jam == Jam::Here {
             s0[WL] = 0.0;
@@ -375,6 +385,10 @@ impl Plant {
         } else {
             self.context(faults, &s0)
         };
+        if faults.winding == Winding::Open {
+            let v = self.open_voltage(&c, &s0);
+            (v_early, v_late) = (v, v);
+        }
         let (mut s1, gear) = self.advance_step(&c, &s0, v_early, v_late);
         if faults.winding == Winding::Open {
             s1[I] = 0.0;
@@ -382,12 +396,17 @@ impl Plant {
         if let Jam::AtAngle(a) = faults.jam {
             // Reached the block within the step: held exactly there; the motor side keeps
             // its angle, so the twist takes up the difference.
-            let (d0, d1) = (s0[TH] - a, s1[TH] - a);
-            if !c.jammed && a.is_finite() && (d1 == 0.0 || (d0 > 0.0) != (d1 > 0.0)) {
-                s1[X] += s1[TH] - a;
-                s1[TH] = a;
-                s1[WL] = 0.0;
+            if let Some(a) = faulty::jam_angle(a) {
+                let (d0, d1) = (s0[TH] - a, s1[TH] - a);
+                if !c.jammed && (d1 == 0.0 || (d0 > 0.0) != (d1 > 0.0)) {
+                    s1[X] += s1[TH] - a;
+                    s1[TH] = a;
+                    s1[WL] = 0.0;
+                }
             }
+        }
+        if !nominal {
+            faulty::bound_state(&mut s1);
         }
         state.set(&s1);
         // Without a delay both parts are the command, and this mean is exactly it.

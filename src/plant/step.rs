@@ -4,8 +4,7 @@ use super::modes::ModeSet;
 use super::modes::{Extra, Input, Mode, Motion, Transition, Vec5, MOTOR_STUCK};
 use super::sine::SineDrive;
 use super::{Plant, I, TH, WL, WM, X};
-use crate::faults::{Jam, PlantFaults};
-use crate::math::{self, abs, fraction};
+use crate::math::{abs, fraction};
 
 /// What may change from step to step: the parameters that faults alter, for this step.
 #[derive(Clone, Copy, Debug)]
@@ -31,18 +30,6 @@ pub(super) struct Ctx {
     pub(super) ext: bool,
 }
 
-/// `x` if finite, else `default`; then clamped to [lo, hi].
-fn sane(x: f32, default: f32, lo: f32, hi: f32) -> f32 {
-    let x = if x.is_finite() { x } else { default };
-    if x < lo {
-        lo
-    } else if x > hi {
-        hi
-    } else {
-        x
-    }
-}
-
 impl Plant {
     /// The nominal context: no fault.
     #[inline(always)]
@@ -58,48 +45,6 @@ impl Plant {
             jammed: false,
             ext: false,
         }
-    }
-
-    /// The context of a step from state `s` under `f`. Out-of-range fault values are
-    /// clamped to their physical range (NaN to "no fault"), so no input makes the step fail.
-    #[inline(always)]
-    pub(super) fn context(&self, f: &PlantFaults, s: &Vec5) -> Ctx {
-        let mut c = self.nominal();
-        if *f == PlantFaults::NONE {
-            return c;
-        }
-        let wear = sane(
-            f.extra_backlash_deg,
-            0.0,
-            0.0,
-            crate::params::MAX_BACKLASH_DEG as f32,
-        );
-        c.delta += wear * (core::f32::consts::PI / 360.0);
-        c.kd = self.k * c.delta;
-        let ff = sane(f.friction_factor, 1.0, 0.0, 1.0e3);
-        c.tf_m *= ff;
-        c.tf_l *= ff;
-        c.t_load = sane(f.load_torque_nm, 0.0, -1.0e6, 1.0e6);
-        c.ext = true;
-        c.jammed = match f.jam {
-            Jam::None => false,
-            Jam::Here => true,
-            // Snapped exactly onto the angle when it was reached (see `step_with_faults`).
-            Jam::AtAngle(a) => s[TH] == a,
-        };
-        if let Some(t) = f.broken_tooth {
-            let loss = sane(t.torque_loss, 0.0, 0.0, 1.0);
-            let half = 0.5 * sane(t.width_rad, 0.0, 0.0, core::f32::consts::TAU);
-            let rel = math::wrap_angle(s[TH] - sane(t.angle_rad, 0.0, -1.0e6, 1.0e6));
-            if loss > 0.0 && abs(rel) < half {
-                // The missing tooth carries `loss` of the gear torque: take it off both ends.
-                let lost = loss * self.transmitted(&c, s, self.gear_of(&c, s[X]));
-                c.t_load -= lost;
-                c.t_motor += lost * self.inv_n;
-                c.lost = lost;
-            }
-        }
-        c
     }
 
     #[inline(always)]

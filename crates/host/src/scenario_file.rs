@@ -26,9 +26,17 @@
 //! `…_dropout` (level = "zero" or "full"), `…_noise` (peak_counts), `…_lost_lsbs` (bits).
 //! Sensor faults and a stuck PWM act on the virtual actuator's sensors and bridge
 //! (`VirtualActuator`); `simulate`, which has neither, refuses them.
+//!
+//! Values beyond their physical range (the bounds in `geared_servo::faults`: a negative
+//! friction factor or wear, a torque beyond ±1e6 N·m, an angle beyond ±1e6 rad, ...) are
+//! refused with the file, line, event and key, never clamped silently.
 
 use crate::error::{shown, HostError};
-use geared_servo::faults::{BrokenTooth, Jam, SensorFault, Winding};
+use geared_servo::faults::{
+    BrokenTooth, Jam, SensorFault, Winding, MAX_BACKLASH_WEAR_DEG, MAX_BUS_FACTOR,
+    MAX_FAULT_ANGLE_RAD, MAX_FRICTION_FACTOR, MAX_GAIN_DRIFT, MAX_LOAD_TORQUE_NM, MAX_LOST_LSBS,
+    MAX_NOISE_PEAK_COUNTS,
+};
 use geared_servo::scenario::{Fault, Scenario, ScenarioError, SensorChannel, TorqueProfile};
 use serde::Deserialize;
 use std::path::Path;
@@ -177,6 +185,32 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
                 Err(here(format!("`{key}` must be finite")))
             }
         };
+        // `v` of `key` within [lo, hi] (the core's bounds, widened to f64).
+        let within = |v: f64, key: &str, lo: f32, hi: f32| -> Result<f64, HostError> {
+            let (lo, hi) = (f64::from(lo), f64::from(hi));
+            if (lo..=hi).contains(&v) {
+                Ok(v)
+            } else if lo == -hi {
+                Err(here(format!("`{key}` = {v} must be within ±{hi}")))
+            } else if lo < 0.0 {
+                Err(here(format!("`{key}` = {v} must be within {lo} to {hi}")))
+            } else {
+                Err(here(format!("`{key}` = {v} must be within {lo}–{hi}")))
+            }
+        };
+        // An angle in degrees whose radians are within the core's bound.
+        let angle = |v: Option<f64>, key: &str| -> Result<f32, HostError> {
+            let v = num(v, key)?;
+            let max = f64::from(MAX_FAULT_ANGLE_RAD);
+            if v.to_radians().abs() <= max {
+                Ok(v.to_radians() as f32)
+            } else {
+                Err(here(format!(
+                    "`{key}` = {v} must be within ±{max:e} rad (±{:.0} degrees)",
+                    max.to_degrees()
+                )))
+            }
+        };
         let fault = if clearing {
             match kind {
                 "load_torque" => Fault::ClearLoadTorque,
@@ -192,7 +226,12 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
         } else {
             match kind {
                 "load_torque" => {
-                    let amplitude_nm = num(e.amplitude_nm, "amplitude_nm")? as f32;
+                    let amplitude_nm = within(
+                        num(e.amplitude_nm, "amplitude_nm")?,
+                        "amplitude_nm",
+                        -MAX_LOAD_TORQUE_NM,
+                        MAX_LOAD_TORQUE_NM,
+                    )? as f32;
                     match e.profile.as_deref().unwrap_or("step") {
                         "step" => Fault::LoadTorque(TorqueProfile::Step { amplitude_nm }),
                         "gust" => {
@@ -216,35 +255,29 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
                 }
                 "jam" => match e.angle_deg {
                     None => Fault::Jam(Jam::Here),
-                    Some(a) => {
-                        Fault::Jam(Jam::AtAngle(num(Some(a), "angle_deg")?.to_radians() as f32))
-                    }
+                    Some(a) => Fault::Jam(Jam::AtAngle(angle(Some(a), "angle_deg")?)),
                 },
                 "backlash_wear" => {
                     let w = num(e.extra_deg, "extra_deg")?;
-                    if !(0.0..=geared_servo::params::MAX_BACKLASH_DEG).contains(&w) {
-                        return Err(here(format!(
-                            "`extra_deg` = {w} must be within 0–{}",
-                            geared_servo::params::MAX_BACKLASH_DEG
-                        )));
-                    }
-                    Fault::BacklashWear(w as f32)
+                    Fault::BacklashWear(within(w, "extra_deg", 0.0, MAX_BACKLASH_WEAR_DEG)? as f32)
                 }
                 "friction_factor" => {
                     let k = num(e.factor, "factor")?;
                     if k < 0.0 {
                         return Err(here("`factor` must be ≥ 0".into()));
                     }
-                    Fault::FrictionFactor(k as f32)
+                    Fault::FrictionFactor(within(k, "factor", 0.0, MAX_FRICTION_FACTOR)? as f32)
                 }
                 "broken_tooth" => {
                     let loss = num(e.torque_loss, "torque_loss")?;
                     if !(0.0..=1.0).contains(&loss) {
                         return Err(here("`torque_loss` must be within 0–1".into()));
                     }
+                    // A width has no sign: its magnitude is taken.
+                    let width = num(e.width_deg, "width_deg")?.abs();
                     Fault::BrokenTooth(Some(BrokenTooth {
-                        angle_rad: num(e.angle_deg, "angle_deg")?.to_radians() as f32,
-                        width_rad: num(e.width_deg, "width_deg")?.abs().to_radians() as f32,
+                        angle_rad: angle(e.angle_deg, "angle_deg")?,
+                        width_rad: within(width, "width_deg", 0.0, 360.0)?.to_radians() as f32,
                         torque_loss: loss as f32,
                     }))
                 }
@@ -252,10 +285,7 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
                 "shorted_winding" => Fault::Winding(Winding::Shorted),
                 "bus_sag" => {
                     let k = num(e.factor, "factor")?;
-                    if !(0.0..=10.0).contains(&k) {
-                        return Err(here("`factor` must be within 0–10".into()));
-                    }
-                    Fault::BusSag(k as f32)
+                    Fault::BusSag(within(k, "factor", 0.0, MAX_BUS_FACTOR)? as f32)
                 }
                 "pwm_stuck" => {
                     let d = e
@@ -276,7 +306,12 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
                     let sf = match what {
                         "stuck" => SensorFault::StuckAt(counts("counts")?),
                         "offset" => SensorFault::Offset(counts("counts")?),
-                        "gain" => SensorFault::GainDrift(num(e.drift, "drift")? as f32),
+                        "gain" => SensorFault::GainDrift(within(
+                            num(e.drift, "drift")?,
+                            "drift",
+                            -1.0,
+                            MAX_GAIN_DRIFT,
+                        )? as f32),
                         "dropout" => match e.level.as_deref().unwrap_or("zero") {
                             "zero" => SensorFault::Dropout(false),
                             "full" => SensorFault::Dropout(true),
@@ -292,12 +327,15 @@ pub fn parse(text: &str, name: &str, dt: f64, steps: usize) -> Result<HostScenar
                             if p < 0.0 {
                                 return Err(here("`peak_counts` must be ≥ 0".into()));
                             }
-                            SensorFault::NoiseBurst(p as f32)
+                            let max = MAX_NOISE_PEAK_COUNTS;
+                            SensorFault::NoiseBurst(within(p, "peak_counts", 0.0, max)? as f32)
                         }
                         _ => {
                             let b = e.bits.ok_or_else(|| here(format!("`{k}` needs `bits`")))?;
-                            if b > 31 {
-                                return Err(here("`bits` must be at most 31".into()));
+                            if b > MAX_LOST_LSBS {
+                                return Err(here(format!(
+                                    "`bits` must be at most {MAX_LOST_LSBS}"
+                                )));
                             }
                             SensorFault::LostLsbs(b)
                         }
