@@ -4,6 +4,7 @@
 //! diffs the QEMU output with.)
 
 use geared_servo::REFERENCE;
+use geared_servo_host::design;
 use geared_servo_host::fr::{self, grid, Bench, SweepOptions};
 
 /// Runs `f` on a fresh rayon pool of `threads` threads.
@@ -45,7 +46,7 @@ fn design_query_is_bit_identical_across_thread_counts() {
             vpk: 10.0,
             ..SweepOptions::default()
         };
-        fr::max_backlash(&REFERENCE, 100.0, opts, 0.002).unwrap()
+        design::max_backlash(&REFERENCE, 100.0, opts, 0.002).unwrap()
     };
     let a = with_threads(1, run);
     let b = with_threads(3, run);

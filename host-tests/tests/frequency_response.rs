@@ -7,6 +7,7 @@
 
 use geared_servo::describing;
 use geared_servo::{ActuatorParams, LinearModel, REFERENCE};
+use geared_servo_host::design;
 use geared_servo_host::fr::{self, Bench, LocateOptions, Located, Resonances, SweepOptions};
 use geared_servo_host::no_answer::Answer;
 use std::sync::OnceLock;
@@ -109,11 +110,11 @@ fn linear_located_anti_resonance_and_resonance_within_0_05_hz_of_closed_form() {
 fn reference_reproduces_paper_design_points() {
     // Paper, section III.C: for a 100 Hz bandwidth, 0.03 deg at 10 V and 0.08 deg at 30 V.
     // Tolerances from the issue: ±0.005 deg and ±0.010 deg.
-    let b10 = fr::max_backlash(&REFERENCE, 100.0, opts(10.0), 0.001)
+    let b10 = design::max_backlash(&REFERENCE, 100.0, opts(10.0), 0.001)
         .unwrap()
         .value
         .unwrap();
-    let b30 = fr::max_backlash(&REFERENCE, 100.0, opts(30.0), 0.001)
+    let b30 = design::max_backlash(&REFERENCE, 100.0, opts(30.0), 0.001)
         .unwrap()
         .value
         .unwrap();
@@ -126,11 +127,11 @@ fn min_voltage_is_consistent_with_max_backlash() {
     // The inverse query at the 30 V design point's backlash must come back near 30 V: f_AR
     // rises with voltage, so the smallest voltage reaching 100 Hz at b(30 V) is ≤ 30 V, and
     // not much lower (a 10 % lower voltage must not suffice).
-    let b30 = fr::max_backlash(&REFERENCE, 100.0, opts(30.0), 0.001)
+    let b30 = design::max_backlash(&REFERENCE, 100.0, opts(30.0), 0.001)
         .unwrap()
         .value
         .unwrap();
-    let v = fr::min_voltage(&REFERENCE.with_backlash_deg(b30), 100.0, opts(10.0), 0.05)
+    let v = design::min_voltage(&REFERENCE.with_backlash_deg(b30), 100.0, opts(10.0), 0.05)
         .unwrap()
         .value
         .unwrap();

@@ -1,36 +1,13 @@
 //! `geared-servo diagnose`: calibrate, trace the residual, report.
 
-use crate::{load_params, Cli, Report};
+use crate::args::{Cli, DiagnoseArgs};
+use crate::common::{load_params, Report};
 use geared_servo::Effect;
 use geared_servo_host::calibrate::Data;
 use geared_servo_host::diagnose::{diagnose, fittable, Options};
 use geared_servo_host::diagnose_report::insert;
 use geared_servo_host::HostError;
 use serde_json::json;
-
-/// Arguments of `geared-servo diagnose`.
-#[derive(clap::Args, Debug, Clone)]
-pub struct DiagnoseArgs {
-    /// Measured record (CSV); repeat for several records fitted together.
-    #[arg(long, value_name = "MEAS.csv", required = true)]
-    pub data: Vec<std::path::PathBuf>,
-    /// Validation record, not fitted: an effect must also lower its error.
-    #[arg(long, value_name = "VAL.csv")]
-    pub validate: Option<std::path::PathBuf>,
-    /// Directory for plots and the calibrated parameter file.
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<std::path::PathBuf>,
-    /// Candidate effects (comma-separated; default: all).
-    #[arg(long, value_delimiter = ',')]
-    pub candidates: Option<Vec<String>>,
-    /// Most effects added.
-    #[arg(long, default_value_t = 3)]
-    pub max_steps: usize,
-    /// Parameters to calibrate instead of the default set (comma-separated key paths, e.g.
-    /// `motor.inertia_kg_m2,load.inertia_kg_m2,motor.resistance_ohm`).
-    #[arg(long, value_delimiter = ',')]
-    pub fit: Option<Vec<String>>,
-}
 
 /// `geared-servo diagnose`.
 pub fn run(cli: &Cli, a: &DiagnoseArgs) -> Result<Report, HostError> {

@@ -1,73 +1,18 @@
 //! The frequency-response commands of the CLI: `bode`, `resonances`, `max-backlash`,
 //! `min-voltage` (and the arguments `paper` shares with them).
 
+use crate::args::{Cli, MeasureArgs};
+use crate::common::{load_params, Report};
 use crate::progress::progress;
-use crate::{load_params, Cli, Report};
-use clap::{Args, ValueEnum};
-use geared_servo::analyser::Hold;
 use geared_servo::describing;
+use geared_servo_host::design;
 use geared_servo_host::error::HostError;
 use geared_servo_host::fr::spread_db;
-use geared_servo_host::fr::{self, Bench, LocateOptions, Located, SweepOptions};
+use geared_servo_host::fr::{self, Bench, LocateOptions, Located};
 use geared_servo_host::no_answer::{add_reason, Answer};
 use geared_servo_host::record::write_file;
 use serde_json::{json, Value};
 use std::path::PathBuf;
-
-/// How the sine reaches the winding (`--hold`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Default)]
-pub enum HoldArg {
-    /// Continuous sine within each step, output sampled every step (the paper's Simulink).
-    #[default]
-    Continuous,
-    /// Sine sampled and held for each step (what firmware applies); its notch sits ~1 Hz
-    /// higher for the reference actuator (the held system's aliasing).
-    Zoh,
-}
-
-/// Measurement options shared by the frequency-response commands.
-#[derive(Args, Debug, Clone)]
-pub struct MeasureArgs {
-    /// Sine input: continuous (paper) or zero-order hold (firmware).
-    #[arg(long, value_enum, default_value_t = HoldArg::Continuous)]
-    pub hold: HoldArg,
-    /// Longest simulated time per frequency when the response does not settle, s.
-    #[arg(long, default_value_t = 1.0, value_name = "S")]
-    pub max_time_s: f64,
-    /// Start every frequency from rest instead of the linearised steady state (slower to
-    /// settle; with backlash it may land on another branch of the response).
-    #[arg(long)]
-    pub cold_start: bool,
-}
-
-impl MeasureArgs {
-    /// The sweep options for amplitude `vpk` (V).
-    pub fn options(&self, vpk: f64) -> Result<SweepOptions, HostError> {
-        if !(vpk.is_finite() && vpk > 0.0) {
-            return Err(HostError::input(format!(
-                "--vpk must be a positive number of volts, got {vpk}"
-            )));
-        }
-        if !(self.max_time_s.is_finite() && self.max_time_s > 0.0) {
-            return Err(HostError::input(format!(
-                "--max-time-s must be positive, got {}",
-                self.max_time_s
-            )));
-        }
-        Ok(SweepOptions {
-            vpk,
-            hold: match self.hold {
-                HoldArg::Continuous => Hold::Continuous,
-                HoldArg::Zoh => Hold::Zoh,
-            },
-            settings: geared_servo::analyser::SweepSettings {
-                max_time_s: self.max_time_s,
-                ..geared_servo::analyser::SweepSettings::DEFAULT
-            },
-            warm_start: !self.cold_start,
-        })
-    }
-}
 
 /// `bode`: stepped-sine response of `V_t/V_m` on a frequency grid.
 #[allow(clippy::too_many_arguments)]
@@ -260,7 +205,7 @@ pub fn max_backlash(
     let (p, name) = load_params(cli, None)?;
     let opts = m.options(vpk)?;
     check_bandwidth(bandwidth)?;
-    let d = fr::max_backlash(&p, bandwidth, opts, 0.001)?;
+    let d = design::max_backlash(&p, bandwidth, opts, 0.001)?;
     let mut json = json!({"params": name, "bandwidth_hz": bandwidth, "vpk": vpk,
         "max_backlash_deg": d.value.as_ref().ok(), "tolerance_deg": 0.001,
         "trace": trace_json(&d, "backlash_deg")});
@@ -291,7 +236,7 @@ pub fn min_voltage(
     let (p, name) = load_params(cli, Some(backlash))?;
     let opts = m.options(10.0)?;
     check_bandwidth(bandwidth)?;
-    let d = fr::min_voltage(&p, bandwidth, opts, 0.05)?;
+    let d = design::min_voltage(&p, bandwidth, opts, 0.05)?;
     let mut json = json!({"params": name, "bandwidth_hz": bandwidth, "backlash_deg": backlash,
         "min_vpk": d.value.as_ref().ok(), "tolerance_v": 0.05,
         "trace": trace_json(&d, "vpk")});
@@ -313,7 +258,7 @@ pub fn min_voltage(
 }
 
 /// The evaluations of a design query: the argument under `arg`, f_AR (null where none).
-fn trace_json(d: &fr::Design, arg: &str) -> Vec<Value> {
+fn trace_json(d: &design::Design, arg: &str) -> Vec<Value> {
     d.trace
         .iter()
         .map(|(x, f)| json!({arg: x, "f_ar_hz": f.as_ref().ok()}))

@@ -1,7 +1,8 @@
 //! `geared-servo paper`: the paper's figures and design points.
 
+use crate::args::Cli;
+use crate::common::{load_params, Report};
 use crate::progress::progress;
-use crate::{load_params, Cli, Report};
 use geared_servo_host::paper::{compute, job_count, summary};
 use geared_servo_host::paper_files::write_all;
 use geared_servo_host::record::write_file;

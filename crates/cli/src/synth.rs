@@ -1,47 +1,10 @@
 //! `geared-servo synth`: synthetic measured data.
 
-use crate::{load_params, Cli, Report};
+use crate::args::{Cli, SynthArgs};
+use crate::common::{load_params, Report};
 use geared_servo::Effect;
-use geared_servo_host::synth::{synthesize, Excitation, SynthSpec};
+use geared_servo_host::synth::{synthesize, SynthSpec};
 use geared_servo_host::HostError;
-
-/// Arguments of `geared-servo synth`.
-#[derive(clap::Args, Debug, Clone)]
-pub struct SynthArgs {
-    /// Output CSV (measured-data format).
-    #[arg(long, value_name = "OUT.csv")]
-    pub output: std::path::PathBuf,
-    /// Excitation waveform.
-    #[arg(long, default_value = "multisine", value_parser = excitation_parser())]
-    pub excitation: Excitation,
-    /// Peak voltage, V.
-    #[arg(long, default_value_t = 10.0)]
-    pub amplitude: f64,
-    /// Lowest frequency (square-wave frequency), Hz.
-    #[arg(long, default_value_t = 2.0)]
-    pub f_min: f64,
-    /// Highest frequency (PRBS clock), Hz.
-    #[arg(long, default_value_t = 300.0)]
-    pub f_max: f64,
-    /// Frequencies of the stepped sine / lines of the multisine.
-    #[arg(long, default_value_t = 40)]
-    pub steps: usize,
-    /// Record length, s.
-    #[arg(long, default_value_t = 4.0)]
-    pub duration: f64,
-    /// Sample period, s (default: the parameter file's).
-    #[arg(long)]
-    pub sample_period: Option<f64>,
-    /// An effect present in the data, NAME=VALUE (repeatable).
-    #[arg(long = "effect", value_name = "NAME=VALUE")]
-    pub effects: Vec<String>,
-    /// Standard deviation of the tachometer noise, V.
-    #[arg(long, default_value_t = 0.0)]
-    pub noise: f64,
-    /// Seed of the random generator.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-}
 
 /// `geared-servo synth`.
 pub fn run(cli: &Cli, a: &SynthArgs) -> Result<Report, HostError> {
@@ -65,7 +28,7 @@ pub fn run(cli: &Cli, a: &SynthArgs) -> Result<Report, HostError> {
     };
     spec.validate()?;
     p.sample_period_s = spec.sample_period_s;
-    crate::params_file::validate(&p, &format!("{name} with --effect/--sample-period"))?;
+    geared_servo_host::params_file::validate(&p, &format!("{name} with --effect/--sample-period"))?;
     let s = synthesize(&p, &spec)?;
     let mut comments = vec![
         format!(
@@ -76,7 +39,7 @@ pub fn run(cli: &Cli, a: &SynthArgs) -> Result<Report, HostError> {
     ];
     comments.extend(spec.comments());
     comments.extend(applied);
-    crate::record::write(
+    geared_servo_host::record::write(
         &a.output,
         &comments,
         &[
@@ -104,13 +67,6 @@ pub fn run(cli: &Cli, a: &SynthArgs) -> Result<Report, HostError> {
         a.output.display()
     );
     Ok(Report { json, text })
-}
-
-/// `--excitation` takes the names the host library defines, listed in `--help`.
-fn excitation_parser() -> impl clap::builder::TypedValueParser<Value = Excitation> {
-    use clap::builder::TypedValueParser;
-    clap::builder::PossibleValuesParser::new(Excitation::ALL.map(Excitation::name))
-        .try_map(|s| s.parse::<Excitation>())
 }
 
 /// Parses `NAME=VALUE` of `--effect`.

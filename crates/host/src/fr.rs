@@ -5,11 +5,11 @@
 //! A located extremum is reported only when it is resolved ([`crate::no_answer`]); otherwise
 //! the answer is the reason there is none.
 
-pub use crate::design::{f_ar, f_ar_top_hz, max_backlash, min_voltage, Design};
 use crate::error::HostError;
 use crate::no_answer::{self, Answer, Cause, Expectation, Extremum, Feature, NoAnswer};
 use crate::progress::Progress;
-use geared_servo::analyser::{self, Harmonic, Hold, SweepSettings};
+pub use crate::response::{Located, Point};
+use geared_servo::analyser::{self, Hold, SweepSettings};
 use geared_servo::describing;
 use geared_servo::linear::LinearModel;
 use geared_servo::{ActuatorParams, Plant, SineDrive};
@@ -38,34 +38,6 @@ impl Default for SweepOptions {
             settings: SweepSettings::DEFAULT,
             warm_start: true,
         }
-    }
-}
-
-/// One simulated frequency.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Point {
-    /// Frequency, Hz.
-    pub freq_hz: f64,
-    /// `V_t/V_m`, V/V.
-    pub tach: Harmonic,
-    /// `I/V_m`, A/V.
-    pub current: Harmonic,
-    /// The blocks agreed within tolerance.
-    pub settled: bool,
-    /// Samples simulated.
-    pub samples: u32,
-    /// Blocks averaged into the harmonics.
-    pub blocks: u32,
-}
-
-impl Point {
-    /// |V_t/V_m|, V/V.
-    pub fn gain(&self) -> f64 {
-        self.tach.phasor.abs()
-    }
-    /// |I/V_m|, A/V.
-    pub fn current_gain(&self) -> f64 {
-        self.current.phasor.abs()
     }
 }
 
@@ -218,22 +190,6 @@ pub fn grid(from: f64, to: f64, step: f64) -> Result<Vec<f64>, HostError> {
     }
     let n = ((to - from) / step + 1e-9).floor() as usize;
     Ok((0..=n).map(|i| from + i as f64 * step).collect())
-}
-
-/// One located frequency with its uncertainty: a resolved feature (an extremum that is not
-/// is a [`NoAnswer`] instead).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Located {
-    /// Best estimate, Hz.
-    pub freq_hz: f64,
-    /// Lowest and highest frequency (Hz) of the contiguous run of simulated points around the
-    /// extremum whose values are within two standard errors (block spread / √blocks) of it:
-    /// how blurred the feature is.
-    pub band_hz: (f64, f64),
-    /// Value there (|V_t/V_m| in V/V or |I/V_m| in A/V).
-    pub value: f64,
-    /// All the points used settled.
-    pub settled: bool,
 }
 
 /// Where the anti-resonance and the resonance are on a simulated response.

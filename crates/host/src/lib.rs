@@ -28,6 +28,7 @@ pub mod plots;
 pub mod progress;
 pub mod record;
 pub mod residual;
+pub mod response;
 pub mod scenario_file;
 pub mod simulate;
 pub mod synth;

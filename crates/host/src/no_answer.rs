@@ -40,7 +40,7 @@
 //! [`Cause::AlwaysReached`]).
 
 use crate::error::HostError;
-use crate::fr::{Located, Point};
+use crate::response::{Located, Point};
 use geared_servo::{describing, ActuatorParams};
 use std::f64::consts::PI;
 use std::fmt;

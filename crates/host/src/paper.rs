@@ -8,6 +8,7 @@
 //! Where a feature has no answer ([`crate::no_answer`]) its CSV fields are empty, the JSON
 //! has null with the reason, and the plots leave the point out.
 
+use crate::design;
 use crate::error::HostError;
 use crate::fr::{self, Bench, Drives, LocateOptions, Located, Point, SweepOptions};
 use crate::no_answer::{add_reason, Answer};
@@ -164,7 +165,11 @@ fn feature_row(
         Arc::clone(drives),
     )?;
     let lo = LocateOptions {
-        to_hz: if with_r { 300.0 } else { fr::f_ar_top_hz(&p)? },
+        to_hz: if with_r {
+            300.0
+        } else {
+            design::f_ar_top_hz(&p)?
+        },
         resonance: with_r,
         ..LocateOptions::default()
     };
@@ -295,7 +300,7 @@ pub fn compute(
     let design = PAPER_DESIGN_POINTS
         .par_iter()
         .map(|&(vpk, paper_deg)| {
-            let r = fr::max_backlash(
+            let r = design::max_backlash(
                 params,
                 bandwidth_hz,
                 SweepOptions {

@@ -354,7 +354,7 @@ pub fn parse(text: &str, name: &str) -> Result<ActuatorParams, HostError> {
 pub fn validate(p: &ActuatorParams, name: &str) -> Result<(), HostError> {
     geared_servo::Plant::new(p)
         .map(|_| ())
-        .map_err(|e| HostError::from(e).at(&name))
+        .map_err(|e| HostError::from(e).at(name))
 }
 
 /// Reads and validates a parameter file; `None` gives the bundled reference actuator.

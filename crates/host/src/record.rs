@@ -8,7 +8,7 @@ use crate::error::{shown, HostError};
 use std::path::Path;
 
 /// Output columns a record may carry (INTERFACES.md "Measured data"), in the order the fit
-/// prefers them when a record has several ([`crate::calibrate::Data::from_record`]): the
+/// prefers them when a record has several (`calibrate::Data::from_record`): the
 /// motor-side speed sensors, then the output shaft's encoder (its angle, then a speed derived
 /// from it), then the current.
 pub const OUTPUT_COLUMNS: [&str; 5] = [

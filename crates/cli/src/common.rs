@@ -1,0 +1,35 @@
+//! What every command shares: the parameter file it loads and the report it returns.
+
+use crate::args::Cli;
+use geared_servo::ActuatorParams;
+use geared_servo_host::error::HostError;
+use geared_servo_host::params_file;
+use serde_json::Value;
+
+/// What a command produced: the JSON object and the human-readable text.
+pub struct Report {
+    /// Printed with `--json`.
+    pub json: Value,
+    /// Printed otherwise.
+    pub text: String,
+}
+
+/// Loads `--params` and applies a `--backlash-deg` override, validating the result.
+pub fn load_params(
+    cli: &Cli,
+    backlash_deg: Option<f64>,
+) -> Result<(ActuatorParams, String), HostError> {
+    let name = cli
+        .params
+        .as_ref()
+        .map(|p| p.display().to_string())
+        .unwrap_or_else(|| params_file::REFERENCE_NAME.to_string());
+    let mut p = params_file::load(cli.params.as_deref())?;
+    if let Some(b) = backlash_deg {
+        p.backlash_deg = b;
+        params_file::validate(&p, "--backlash-deg").map_err(|e| {
+            HostError::input(e.message.replace("key `backlash.total_deg`", "value"))
+        })?;
+    }
+    Ok((p, name))
+}
