@@ -4,7 +4,9 @@ use crate::args::Cli;
 use geared_servo::ActuatorParams;
 use geared_servo_host::error::HostError;
 use geared_servo_host::params_file;
+use geared_servo_host::record::{self, Record};
 use serde_json::Value;
+use std::path::Path;
 
 /// What a command produced: the JSON object and the human-readable text.
 pub struct Report {
@@ -32,4 +34,25 @@ pub fn load_params(
         })?;
     }
     Ok((p, name))
+}
+
+/// Reads the record at `path` (with at least one output column when `require_output`),
+/// prints its warnings on stderr, and checks that `params` are valid at the record's sample
+/// period.
+pub fn read_record(
+    params: &ActuatorParams,
+    path: &Path,
+    require_output: bool,
+) -> Result<Record, HostError> {
+    let rec = record::read(path, require_output)?;
+    for w in &rec.warnings {
+        eprintln!("warning: {w}");
+    }
+    let mut p = *params;
+    p.sample_period_s = rec.sample_period_s;
+    params_file::validate(
+        &p,
+        &format!("{} (sample period of the record)", path.display()),
+    )?;
+    Ok(rec)
 }

@@ -1,7 +1,7 @@
 //! `geared-servo diagnose`: calibrate, trace the residual, report.
 
 use crate::args::{Cli, DiagnoseArgs};
-use crate::common::{load_params, Report};
+use crate::common::{load_params, read_record, Report};
 use geared_servo::Effect;
 use geared_servo_host::calibrate::Data;
 use geared_servo_host::diagnose::{diagnose, fittable, Options};
@@ -15,16 +15,7 @@ pub fn run(cli: &Cli, a: &DiagnoseArgs) -> Result<Report, HostError> {
     let (p, name) = load_params(cli, None)?;
     let mut data = Vec::new();
     for path in &a.data {
-        let rec = record::read(path, true)?;
-        for w in &rec.warnings {
-            eprintln!("warning: {w}");
-        }
-        let mut q = p;
-        q.sample_period_s = rec.sample_period_s;
-        params_file::validate(
-            &q,
-            &format!("{} (sample period of the record)", path.display()),
-        )?;
+        let rec = read_record(&p, path, true)?;
         data.push(Data::from_record(&rec, &path.display().to_string())?);
     }
     let val = match &a.validate {

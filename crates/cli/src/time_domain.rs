@@ -2,10 +2,10 @@
 //! on a voltage record).
 
 use crate::args::Cli;
-use crate::common::{load_params, Report};
+use crate::common::{load_params, read_record, Report};
 use geared_servo_host::error::HostError;
 use geared_servo_host::simulate::{simulate_with_scenario, SIMULATE_COLUMNS};
-use geared_servo_host::{params_file, record, scenario_file};
+use geared_servo_host::{record, scenario_file};
 use serde_json::json;
 use std::path::Path;
 
@@ -65,16 +65,7 @@ pub fn simulate(
     scenario: Option<&Path>,
 ) -> Result<Report, HostError> {
     let (p, name) = load_params(cli, backlash)?;
-    let rec = record::read(input, false)?;
-    for w in &rec.warnings {
-        eprintln!("warning: {w}");
-    }
-    let mut pp = p;
-    pp.sample_period_s = rec.sample_period_s;
-    params_file::validate(
-        &pp,
-        &format!("{} (sample period of the record)", input.display()),
-    )?;
+    let rec = read_record(&p, input, false)?;
     let mut sc = match scenario {
         Some(path) => {
             let sc = scenario_file::load(path, rec.sample_period_s, rec.len())?;
