@@ -31,8 +31,23 @@ pub struct Data {
     pub sample_period_s: f64,
     /// Steps of the first voltage held before the record when it does not start at rest.
     pub preroll: usize,
-    /// ‖y − mean(y)‖₂, the NRMSE denominator.
+    /// Weight of each row in the fit, 0 to 1: 1 everywhere unless spans are weighted out
+    /// ([`Data::with_weights`]), e.g. where the model cannot be followed sample by sample
+    /// (`crate::predictability`).
+    pub weight: Vec<f64>,
+    /// ‖√w (y − ȳ_w)‖₂ (ȳ_w the weighted mean), the NRMSE denominator.
     pub norm: f64,
+}
+
+/// Weighted mean and ‖√w (y − ȳ_w)‖₂ of `y`.
+fn weighted_norm(y: &[f64], w: &[f64]) -> (f64, f64) {
+    let sw: f64 = w.iter().sum();
+    if sw <= 0.0 {
+        return (0.0, 0.0);
+    }
+    let mean = y.iter().zip(w).map(|(a, b)| a * b).sum::<f64>() / sw;
+    let ss: f64 = y.iter().zip(w).map(|(a, b)| b * (a - mean).powi(2)).sum();
+    (mean, ss.sqrt())
 }
 
 /// Output columns the fit can use, in order of preference: every measured output
@@ -55,8 +70,8 @@ impl Data {
         } else {
             0
         };
-        let mean = y.iter().sum::<f64>() / y.len().max(1) as f64;
-        let norm = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>().sqrt();
+        let weight = vec![1.0; y.len()];
+        let (_, norm) = weighted_norm(&y, &weight);
         if norm <= 0.0 || !norm.is_finite() {
             return Err(HostError::input(format!(
                 "{name}: column `{output}` is constant: nothing to fit"
@@ -68,8 +83,39 @@ impl Data {
             output,
             sample_period_s: rec.sample_period_s,
             preroll,
+            weight,
             norm,
         })
+    }
+
+    /// The same record with row weights `w` (clamped to 0..=1; missing rows weigh 1) and the
+    /// NRMSE denominator taken over them. Unchanged when every weight would be zero or the
+    /// weighted output is constant: there would be nothing left to fit.
+    pub fn with_weights(&self, w: &[f64]) -> Data {
+        let weight: Vec<f64> = (0..self.y.len())
+            .map(|k| w.get(k).copied().unwrap_or(1.0))
+            .map(|x| if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) })
+            .collect();
+        let (_, norm) = weighted_norm(&self.y, &weight);
+        if norm <= 0.0 || !norm.is_finite() {
+            return self.clone();
+        }
+        Data {
+            weight,
+            norm,
+            ..self.clone()
+        }
+    }
+
+    /// Share of the rows with weight below ½ (weighted out).
+    pub fn excluded_share(&self) -> f64 {
+        let n = self.weight.len().max(1) as f64;
+        self.weight.iter().filter(|w| **w < 0.5).count() as f64 / n
+    }
+
+    /// Sum of the weights (the effective number of rows).
+    pub fn weight_sum(&self) -> f64 {
+        self.weight.iter().sum()
     }
 
     /// Largest |commanded voltage|, V.
@@ -126,13 +172,14 @@ pub fn simulate(p: &ActuatorParams, d: &Data) -> Option<Trace> {
     Some(t)
 }
 
-/// NRMSE of `p` on `d` (∞ if `p` is invalid).
+/// NRMSE of `p` on `d` over its weighted rows (∞ if `p` is invalid).
 pub fn nrmse(p: &ActuatorParams, d: &Data) -> f64 {
     match simulate(p, d) {
         Some(t) => {
             t.y.iter()
                 .zip(&d.y)
-                .map(|(a, b)| (a - b).powi(2))
+                .zip(&d.weight)
+                .map(|((a, b), w)| w * (a - b).powi(2))
                 .sum::<f64>()
                 .sqrt()
                 / d.norm
@@ -149,7 +196,12 @@ pub fn residuals(p: &ActuatorParams, data: &[Data]) -> DVector<f64> {
     let mut r = Vec::with_capacity(m);
     for d in data {
         match simulate(p, d) {
-            Some(t) => r.extend(t.y.iter().zip(&d.y).map(|(a, b)| w * (b - a) / d.norm)),
+            Some(t) => r.extend(
+                t.y.iter()
+                    .zip(&d.y)
+                    .zip(&d.weight)
+                    .map(|((a, b), wk)| w * wk.sqrt() * (b - a) / d.norm),
+            ),
             None => r.extend(std::iter::repeat_n(1e3, d.y.len())),
         }
     }
@@ -481,12 +533,83 @@ pub fn frf_start(p: &ActuatorParams, d: &Data) -> Option<ActuatorParams> {
     q.derived().ok().map(|_| q)
 }
 
-/// Coarse search, then Levenberg–Marquardt.
+/// Half-width of the box [`explore`] samples around the start, in the internal coordinate:
+/// inertias and stiffness within a factor 1.5 (a data sheet is rarely further off), friction,
+/// backlash and effects within a factor 3, linear knobs within a fifth of their range.
+fn explore_half_width(k: &Knob) -> f64 {
+    match k.param {
+        _ if !k.log => 0.2 * (k.hi - k.lo),
+        Param::MotorInertia | Param::LoadInertia | Param::StiffnessKeq => 1.5f64.ln(),
+        _ => 3.0f64.ln(),
+    }
+}
+
+/// Global exploration of the cost around `p0`: `samples` points of a Latin hypercube (seeded,
+/// so a run is reproducible) in the box of [`explore_half_width`], each simulated once.
+/// Returns (cost, parameters) sorted best first, `p0` included.
+pub fn explore(
+    p0: &ActuatorParams,
+    knobs: &[Knob],
+    data: &[Data],
+    samples: usize,
+) -> Vec<(f64, ActuatorParams)> {
+    use rand::seq::SliceRandom;
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x5eed);
+    let m = samples.max(1);
+    // One stratum per sample in every coordinate, shuffled independently.
+    let columns: Vec<Vec<f64>> = knobs
+        .iter()
+        .map(|_| {
+            let mut c: Vec<f64> = (0..m)
+                .map(|i| (i as f64 + rng.gen::<f64>()) / m as f64)
+                .collect();
+            c.shuffle(&mut rng);
+            c
+        })
+        .collect();
+    let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, k.param))).collect();
+    let points: Vec<ActuatorParams> = (0..m)
+        .map(|i| {
+            let z: Vec<f64> = knobs
+                .iter()
+                .zip(&z0)
+                .zip(&columns)
+                .map(|((k, &zc), col)| {
+                    let u = col.get(i).copied().unwrap_or(0.5);
+                    zc + (2.0 * u - 1.0) * explore_half_width(k)
+                })
+                .collect();
+            apply(p0, knobs, &z)
+        })
+        .collect();
+    let mut out: Vec<(f64, ActuatorParams)> = points
+        .into_par_iter()
+        .chain(rayon::iter::once(*p0))
+        .map(|q| (cost(&q, data), q))
+        .filter(|(c, _)| c.is_finite())
+        .collect();
+    out.sort_by(|a, b| a.0.total_cmp(&b.0));
+    out
+}
+
+/// Points per knob that [`calibrate`] explores.
+pub const EXPLORE_PER_KNOB: usize = 48;
+
+/// Starts [`calibrate`] polishes after exploring.
+pub const POLISHED_STARTS: usize = 4;
+
+/// Calibrates `knobs` from `p0`: the cost is multimodal (MODEL.md: backlash lowers the notch
+/// by an amount that depends on the amplitude, inertia does not, and a fit from the file can
+/// stop in the basin that trades one for the other), so the search is global first. Starts:
+/// the file, what the record's own frequency response says (eqs. 17a/b), and the best points
+/// of a Latin-hypercube exploration ([`explore`]); the best [`POLISHED_STARTS`] distinct ones
+/// get a coarse search and a short Levenberg–Marquardt, and the best of those a full one.
 pub fn calibrate(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> Fit {
     let c0 = cost(p0, data);
-    // Two starts: the file, and what the record's own frequency response says (MODEL.md:
-    // the cost is multimodal in the resonance frequencies). Keep the better.
-    let mut start = *p0;
+    // The record's own frequency response always gets polished: its cost before polishing
+    // says little (the notch can be right while friction is off).
+    let mut chosen: Vec<ActuatorParams> = Vec::new();
     let has = |param: Param| knobs.iter().any(|k| k.param == param);
     if has(Param::StiffnessKeq) && has(Param::MotorInertia) {
         if let Some(q) = data.first().and_then(|d| frf_start(p0, d)) {
@@ -494,13 +617,42 @@ pub fn calibrate(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> Fit {
                 let v = get(&q, k.param);
                 v >= k.lo && v <= k.hi
             });
-            if inside && cost(&q, data) < c0 {
-                start = q;
+            if inside {
+                chosen.push(q);
             }
         }
     }
-    let (p1, _) = coarse_search(&start, knobs, data, 2);
-    let mut fit = levenberg_marquardt(&p1, knobs, data);
+    let mut starts: Vec<(f64, ActuatorParams)> = vec![(c0, *p0)];
+    if !knobs.is_empty() {
+        starts.extend(explore(p0, knobs, data, EXPLORE_PER_KNOB * knobs.len()));
+    }
+    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // Distinct starts: at least a tenth of the exploration box apart in some knob.
+    let wanted = chosen.len() + POLISHED_STARTS;
+    for (_, q) in &starts {
+        let far = chosen.iter().all(|c| {
+            knobs.iter().any(|k| {
+                (k.to_z(get(c, k.param)) - k.to_z(get(q, k.param))).abs()
+                    > 0.1 * explore_half_width(k)
+            })
+        });
+        if far {
+            chosen.push(*q);
+        }
+        if chosen.len() >= wanted {
+            break;
+        }
+    }
+    let mut best: Option<Fit> = None;
+    for q in chosen {
+        let (p1, _) = coarse_search(&q, knobs, data, 1);
+        let f = levenberg_marquardt_with(&p1, knobs, data, 6);
+        if best.as_ref().is_none_or(|b| f.cost < b.cost) {
+            best = Some(f);
+        }
+    }
+    let start = best.map(|f| f.params).unwrap_or(*p0);
+    let mut fit = levenberg_marquardt(&start, knobs, data);
     fit.cost_start = c0;
     let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, k.param))).collect();
     fit.moved = knobs

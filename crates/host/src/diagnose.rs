@@ -1,20 +1,41 @@
 //! `diagnose`: calibrate the default parameter set, analyse the residual, trace it to a
 //! missing effect, add the effect, refit, repeat; report the error before and after.
 //!
-//! Tracing: every candidate effect that the model does not have yet is scored by a
-//! one-dimensional search of its value on a grid around its natural scale (everything else
-//! held at the current fit) — how much of the residual it can explain. The best few are
-//! refitted together with the default set by Levenberg–Marquardt. The best refit is added
-//! only if it earns its parameter by the Bayesian information criterion, computed with an
-//! effective sample count n (1 − ρ₁)/(1 + ρ₁) (ρ₁: lag-1 autocorrelation of the residual, so
-//! that a smooth, strongly correlated residual does not count as n independent samples), and,
-//! when a validation record is given, only if it also lowers the validation error; it must
-//! also explain at least 5 % of the residual energy. The loop
-//! stops when the residual is white or no candidate earns its place; structure left then is
-//! reported as unexplained, with the band and regime that hold its energy.
+//! It is built for records the emulator did not make (a real rig, or an independent
+//! simulator), which differ from the model in three ways that decisions must respect:
+//!
+//! - **Unpredictable spans.** In gear-rattle regimes no model follows a rig sample by sample
+//!   ([`crate::predictability`]). Those rows are weighted out of every fit and decision, and
+//!   their share is reported.
+//! - **Noise.** The noise level is estimated from the record itself ([`crate::noise`]); the
+//!   NRMSE it alone causes is the floor. An effect must explain a material share of what lies
+//!   *above* the floor, and the residual is "explained" when it is within
+//!   [`Options::material_ratio`] of the floor — with 10⁴ samples every tiny mismatch is
+//!   statistically significant, so significance (ΔBIC) is necessary but not sufficient.
+//! - **Wrong basins and gross errors.** The default set is calibrated globally
+//!   ([`calibrate::calibrate`]); when the calibrated residual is far above the floor, every
+//!   candidate is refitted fully instead of being screened by a linear projection around a
+//!   fit that a missing effect has bent.
+//!
+//! Tracing: each candidate effect the model does not have yet is scored by a linearised
+//! projection of the residual; the best few (every one when the fit is poor) are refitted
+//! with the default set by Levenberg–Marquardt. A refit is *admissible* when it earns its
+//! parameter by the Bayesian information criterion (effective sample count n (1 − ρ₁)/(1 + ρ₁),
+//! ρ₁ the residual's lag-1 autocorrelation), explains at least [`Options::min_excess_share`]
+//! of the cost above the floor, and its value is plausible (within the effect's plausible range
+//! of the registry, widened by [`Options::plausibility_slack`]). Admissible refits whose costs
+//! the data cannot tell apart (within the BIC threshold) form one class, ordered by physical
+//! likelihood: a value inside the plausible range first, then the least change of the
+//! parameters already calibrated. The first of the class that also holds on held-out data —
+//! cross-validated segments of the record and, when given, the validation record — is added,
+//! reported with the others of its class and the measurement that would separate them.
+//! `unexplained` is true when a material residual remains above the floor on the predictable
+//! rows and no candidate explains it.
 
 use crate::calibrate::{self, Data, Fit, Knob, Param};
 use crate::error::HostError;
+use crate::noise;
+use crate::predictability;
 use crate::residual::{self, Analysis};
 use geared_servo::{ActuatorParams, Effect};
 use rayon::prelude::*;
@@ -22,18 +43,27 @@ use rayon::prelude::*;
 /// Options of the search.
 #[derive(Clone, Debug)]
 pub struct Options {
-    /// Candidate effects (default: all seven).
+    /// Candidate effects (default: all of [`Effect::ALL`]).
     pub candidates: Vec<Effect>,
     /// Most effects added.
     pub max_steps: usize,
-    /// Candidates refitted fully per step (the best by their one-dimensional score).
+    /// Candidates refitted fully per step when the fit is good (the best by their projected
+    /// score); when it is poor (NRMSE above [`Options::poor_ratio`] times the floor) all are.
     pub refit_top: usize,
-    /// ΔBIC an effect must beat (negative: strong evidence at −10, Kass & Raftery 1995).
+    /// ΔBIC an effect must beat (negative: strong evidence at −10, Kass & Raftery 1995); also
+    /// the width of a class of indistinguishable explanations.
     pub bic_threshold: f64,
-    /// Least share of the residual energy an effect must explain to be claimed (materiality:
-    /// with a strongly structured residual a small gain can pass the BIC and still say
-    /// nothing about the structure).
-    pub min_explained: f64,
+    /// Least share of the cost above the noise floor an effect must explain (materiality).
+    pub min_excess_share: f64,
+    /// The residual is material while NRMSE exceeds this multiple of the noise floor.
+    pub material_ratio: f64,
+    /// The fit is poor (all candidates are refitted) above this multiple of the floor.
+    pub poor_ratio: f64,
+    /// Factor by which a value may leave the effect's plausible range and still be admissible
+    /// (log scale for positive effects; the range's half-width for a gain error).
+    pub plausibility_slack: f64,
+    /// Weight out unpredictable spans ([`crate::predictability`]).
+    pub predictability: bool,
     /// Parameters to calibrate instead of the default set (key paths of
     /// [`calibrate::FITTABLE`]); `None`: the default set.
     pub fit: Option<Vec<String>>,
@@ -46,7 +76,11 @@ impl Default for Options {
             max_steps: 3,
             refit_top: 3,
             bic_threshold: -10.0,
-            min_explained: 0.05,
+            min_excess_share: 0.3,
+            material_ratio: 1.2,
+            poor_ratio: 2.0,
+            plausibility_slack: 2.0,
+            predictability: true,
             fit: None,
         }
     }
@@ -61,7 +95,7 @@ pub struct Step {
     pub value: f64,
     /// Its standard error.
     pub std_error: f64,
-    /// NRMSE (root mean square over records) before and after adding it.
+    /// NRMSE over the predictable rows (root mean square over records) before adding it.
     pub nrmse_before: f64,
     /// After.
     pub nrmse_after: f64,
@@ -69,13 +103,32 @@ pub struct Step {
     pub delta_bic: f64,
     /// Scores of every candidate at this step: (effect, predicted NRMSE, start value).
     pub scores: Vec<(Effect, f64, f64)>,
-    /// The residual is still structured at the end: this effect earned its parameter but
-    /// does not account for the structure, so it is not claimed with confidence.
+    /// A material residual remains at the end: this effect earned its parameter but does
+    /// not account for everything, so it is not claimed with confidence.
     pub partial: bool,
-    /// Other candidates that explained this record as well (within the BIC threshold):
-    /// the data cannot tell them apart, and this one was chosen because it needs the least
-    /// change of the parameters already calibrated.
-    pub indistinguishable_from: Vec<Effect>,
+    /// Other candidates that explained this record as well (within the BIC threshold), with
+    /// their values: the data cannot tell them apart. This one was put first as the
+    /// physically likelier (value inside its plausible range, least change of the parameters
+    /// already calibrated).
+    pub indistinguishable_from: Vec<(Effect, f64)>,
+    /// What measurement would separate this effect from the first of
+    /// `indistinguishable_from` (empty when there is none).
+    pub separate_by: String,
+    /// Held-out check: (NRMSE on held-out segments without the effect, with it).
+    pub held_out: (f64, f64),
+}
+
+/// A candidate refitted and judged but not added.
+#[derive(Clone, Debug)]
+pub struct Rejection {
+    /// The effect.
+    pub effect: Effect,
+    /// Its refitted value.
+    pub value: f64,
+    /// NRMSE (predictable rows) after its refit.
+    pub nrmse_after: f64,
+    /// Why it was not added.
+    pub reason: String,
 }
 
 /// Everything `diagnose` found.
@@ -83,27 +136,38 @@ pub struct Step {
 pub struct Outcome {
     /// The file's parameters (stiffness in measured form).
     pub nominal: ActuatorParams,
-    /// Analysis of the nominal model on the first record.
+    /// Analysis of the nominal model on the first record (every row).
     pub nominal_analysis: Analysis,
     /// Calibration of the default set, no effect added.
     pub base: Fit,
-    /// Analysis after that calibration.
+    /// Analysis after that calibration (predictable rows).
     pub base_analysis: Analysis,
     /// Effects added, in order.
     pub steps: Vec<Step>,
     /// Final calibration.
     pub final_fit: Fit,
-    /// Final analysis on the first record.
+    /// Final analysis on the first record (predictable rows).
     pub final_analysis: Analysis,
-    /// Validation NRMSE of the nominal model and of the final one.
+    /// NRMSE of the final model on every row of the first record.
+    pub final_nrmse_all_rows: f64,
+    /// Validation NRMSE (predictable rows) of the nominal model and of the final one.
     pub validation: Option<(f64, f64)>,
-    /// Residual still structured and no candidate explains it.
+    /// A material residual remains above the noise floor and no candidate explains it.
     pub unexplained: bool,
     /// Candidate scores of the last search: (effect, predicted NRMSE, start value).
     pub last_scores: Vec<(Effect, f64, f64)>,
-    /// The best candidate of the last search when it did not earn its place:
-    /// (effect, value, NRMSE after its refit).
-    pub rejected: Option<(Effect, f64, f64)>,
+    /// The candidates of the last search that were refitted and not added, best first.
+    pub rejected: Vec<Rejection>,
+    /// Estimated noise standard deviation of each record, in its output's unit.
+    pub noise_sigma: Vec<f64>,
+    /// NRMSE the noise alone gives (root mean square over records, predictable rows): the
+    /// floor.
+    pub floor_nrmse: f64,
+    /// Share of each record's rows weighted out as unpredictable, at the final fit.
+    pub unpredictable_share: Vec<f64>,
+    /// RMS of the measured and of the modelled output over the unpredictable rows of the
+    /// first record (compared by statistics instead of sample by sample), when there are any.
+    pub unpredictable_rms: Option<(f64, f64)>,
 }
 
 fn rms_nrmse(cost: f64) -> f64 {
@@ -113,17 +177,25 @@ fn rms_nrmse(cost: f64) -> f64 {
 fn analyse(p: &ActuatorParams, d: &Data) -> Result<(Analysis, calibrate::Trace), HostError> {
     let t = calibrate::simulate(p, d)
         .ok_or_else(|| HostError::other("the calibrated parameters are invalid"))?;
-    Ok((residual::analyse(&d.y, &t, &d.volts, d.sample_period_s), t))
+    Ok((
+        residual::analyse_weighted(&d.y, &t, &d.volts, d.sample_period_s, &d.weight),
+        t,
+    ))
 }
 
 /// Lag-1 autocorrelation of the stacked residuals of `p` (first record).
 fn effective_samples(p: &ActuatorParams, data: &[Data]) -> f64 {
-    let n: usize = data.iter().map(|d| d.y.len()).sum();
+    let n: f64 = data.iter().map(Data::weight_sum).sum();
     let Some(d) = data.first() else { return 1.0 };
     let Some(t) = calibrate::simulate(p, d) else {
         return 1.0;
     };
-    let e: Vec<f64> = d.y.iter().zip(&t.y).map(|(a, b)| a - b).collect();
+    let e: Vec<f64> =
+        d.y.iter()
+            .zip(&t.y)
+            .zip(&d.weight)
+            .map(|((a, b), w)| w.sqrt() * (a - b))
+            .collect();
     let m = e.iter().sum::<f64>() / e.len().max(1) as f64;
     let s0: f64 = e.iter().map(|x| (x - m).powi(2)).sum();
     let s1: f64 = e
@@ -136,7 +208,110 @@ fn effective_samples(p: &ActuatorParams, data: &[Data]) -> f64 {
     } else {
         0.0
     };
-    (n as f64 * (1.0 - rho) / (1.0 + rho)).max(2.0)
+    (n * (1.0 - rho) / (1.0 + rho)).max(2.0)
+}
+
+/// Each record weighted by its predictability under `p` (or unweighted when switched off).
+fn weigh(p: &ActuatorParams, data: &[Data], on: bool) -> Vec<Data> {
+    data.iter()
+        .map(|d| {
+            if on {
+                predictability::weigh(p, d).0
+            } else {
+                d.clone()
+            }
+        })
+        .collect()
+}
+
+/// The floor cost (mean over records of the noise-only NRMSE²) of weighted records whose
+/// noise levels are `sigma`.
+fn floor_cost(data: &[Data], sigma: &[f64]) -> f64 {
+    data.iter()
+        .zip(sigma)
+        .map(|(d, s)| noise::floor_nrmse(*s, &d.weight, d.norm).powi(2))
+        .sum::<f64>()
+        / data.len().max(1) as f64
+}
+
+/// How far `v` lies outside `effect`'s plausible range, in units of the range's own scale:
+/// 0 inside, 1 at the edge widened by `slack` (log factor for positive effects, half-widths
+/// for a signed gain error), more beyond.
+fn implausibility(effect: Effect, v: f64, slack: f64) -> f64 {
+    let (lo, hi) = effect.plausible_range();
+    if lo < 0.0 {
+        let half = 0.5 * (hi - lo);
+        let out = (v - hi).max(lo - v).max(0.0);
+        return out / (half * (slack - 1.0).max(1e-9));
+    }
+    if v <= 0.0 {
+        return f64::INFINITY;
+    }
+    let out = (v / hi).ln().max((lo / v).ln()).max(0.0);
+    out / slack.ln().max(1e-9)
+}
+
+/// What would separate `a` from `b` when a record cannot.
+pub fn separating_measurement(a: Effect, b: Effect, output: &str) -> String {
+    use Effect::*;
+    let pair = |x: Effect, y: Effect| (a == x && b == y) || (a == y && b == x);
+    let current = if output == "current_a" {
+        ""
+    } else {
+        "log the armature current (viscous friction draws current, a sensor error does not); "
+    };
+    if pair(TachGain, MotorViscous) || pair(TachGain, LoadViscous) {
+        format!("{current}or record the load angle with an independent sensor")
+    } else if pair(MotorViscous, LoadViscous) {
+        "a stepped sine with more periods through the anti-resonance, or a record of the load angle (the two damp different masses)".to_string()
+    } else if pair(InputDelay, VoltageLimit) || pair(VoltageLimit, TachGain) {
+        "records at two amplitudes (saturation depends on the amplitude, a delay or a gain error does not)".to_string()
+    } else if pair(MeshDamping, LoadViscous) || pair(MeshDamping, MotorViscous) {
+        "a stepped sine at two amplitudes through the resonance (mesh damping acts only in contact)"
+            .to_string()
+    } else {
+        "records at two amplitudes and of other outputs (current, load angle)".to_string()
+    }
+}
+
+/// Two complementary sets of interleaved segments of every record (about 0.5 s each, at
+/// least 8 per record): a fit on one is checked on the other.
+fn folds(data: &[Data]) -> [Vec<Data>; 2] {
+    let mk = |parity: usize| -> Vec<Data> {
+        data.iter()
+            .map(|d| {
+                let n = d.y.len();
+                let seg = ((0.5 / d.sample_period_s).round() as usize)
+                    .min(n / 8)
+                    .max(1);
+                let w: Vec<f64> = d
+                    .weight
+                    .iter()
+                    .enumerate()
+                    .map(|(k, w)| if (k / seg) % 2 == parity { *w } else { 0.0 })
+                    .collect();
+                d.with_weights(&w)
+            })
+            .collect()
+    };
+    [mk(0), mk(1)]
+}
+
+/// Held-out check of adding the effect of `with` to the model of `without`: each is refitted
+/// briefly on one fold and scored on the other, both ways. Returns the held-out NRMSE
+/// (root mean square over the folds) without and with the effect.
+fn held_out(without: &Fit, with: &Fit, data: &[Data]) -> (f64, f64) {
+    let [a, b] = folds(data);
+    let score = |f: &Fit| -> f64 {
+        let mut c = 0.0;
+        for (train, test) in [(&a, &b), (&b, &a)] {
+            let g = calibrate::levenberg_marquardt_with(&f.params, &f.knobs, train, 3);
+            c += calibrate::cost(&g.params, test);
+        }
+        rms_nrmse(c / 2.0)
+    };
+    let (x, y) = rayon::join(|| score(without), || score(with));
+    (x, y)
 }
 
 /// Grid of values tried for `effect` (whose knob is `k`) in the one-dimensional score.
@@ -221,50 +396,34 @@ fn score(
     out
 }
 
-/// Picks the candidate to add from the screened refits. Fits whose costs differ by less
-/// than `bic_margin` in BIC terms (`n_eff · ln(cost / best)`) explain the record equally
-/// well: the data cannot separate them (e.g. motor viscous friction and a tachometer gain
-/// error with rescaled inertias both lower the DC gain). Among those, the one that moves the
-/// already-calibrated parameters least from the current fit wins — the file's values are the
-/// prior, and an explanation that needs a 30 % change of every inertia is the less likely one.
-/// Returns the fit, its effect, and the other indistinguishable candidates.
-fn choose(
-    cur: &Fit,
-    fits: Vec<(Fit, Effect)>,
-    n_eff: f64,
-    bic_margin: f64,
-) -> Option<(Fit, Effect, Vec<Effect>)> {
-    let best = fits
+/// A candidate's full refit, judged.
+struct Judged {
+    fit: Fit,
+    effect: Effect,
+    value: f64,
+    delta_bic: f64,
+    admissible: Result<(), String>,
+    implausibility: f64,
+    distortion: f64,
+}
+
+/// Change of the already-calibrated parameters from `cur` to `f` (squared, internal
+/// coordinates): the file's values and the current fit are the prior, and an explanation
+/// that needs a 30 % change of every inertia is the less likely one.
+fn distortion(cur: &Fit, f: &Fit) -> f64 {
+    cur.knobs
         .iter()
-        .map(|(f, _)| f.cost)
-        .fold(f64::INFINITY, f64::min);
-    if !best.is_finite() {
-        return None;
-    }
-    let distortion = |f: &Fit| -> f64 {
-        cur.knobs
-            .iter()
-            .zip(cur.values.iter())
-            .zip(f.values.iter())
-            .map(|((kn, a), b)| {
-                let d = if kn.log {
-                    kn.to_z(*b) - kn.to_z(*a)
-                } else {
-                    (b - a) / a.abs().max(f64::MIN_POSITIVE)
-                };
-                d * d
-            })
-            .sum()
-    };
-    let mut close: Vec<(Fit, Effect)> = fits
-        .into_iter()
-        .filter(|(f, _)| n_eff * (f.cost / best).ln() < bic_margin)
-        .collect();
-    close.sort_by(|(a, _), (b, _)| distortion(a).total_cmp(&distortion(b)));
-    let mut it = close.into_iter();
-    let (fit, effect) = it.next()?;
-    let others = it.map(|(_, e)| e).collect();
-    Some((fit, effect, others))
+        .zip(cur.values.iter())
+        .zip(f.values.iter())
+        .map(|((kn, a), b)| {
+            let d = if kn.log {
+                kn.to_z(*b) - kn.to_z(*a)
+            } else {
+                (b - a) / a.abs().max(f64::MIN_POSITIVE)
+            };
+            d * d
+        })
+        .sum()
 }
 
 /// The parameters named in `names`, each one [`diagnose`] can calibrate
@@ -305,7 +464,13 @@ pub fn diagnose(
     let mut nominal = calibrate::with_measured_stiffness(file_params)?;
     nominal.sample_period_s = first.sample_period_s;
     let max_v = data.iter().map(Data::max_abs_v).fold(0.0, f64::max);
-    let (nominal_analysis, _) = analyse(&nominal, first)?;
+    let nominal_analysis = {
+        let t = calibrate::simulate(&nominal, first)
+            .ok_or_else(|| HostError::other("the file's parameters are invalid"))?;
+        residual::analyse(&first.y, &t, &first.volts, first.sample_period_s)
+    };
+    let sigma: Vec<f64> = data.iter().map(|d| noise::sigma(&d.y)).collect();
+    let val_sigma = validation.map(|v| noise::sigma(&v.y));
 
     let knobs = match &opts.fit {
         None => calibrate::default_knobs(&nominal, max_v),
@@ -317,16 +482,36 @@ pub fn diagnose(
             ks
         }
     };
-    let base = calibrate::calibrate(&nominal, &knobs, data);
-    let (base_analysis, _) = analyse(&base.params, first)?;
+    // Predictability under the file's values, calibration, then predictability again under
+    // the calibration (which can differ a lot from the file) and a polish.
+    let w0 = weigh(&nominal, data, opts.predictability);
+    let first_fit = calibrate::calibrate(&nominal, &knobs, &w0);
+    let mut wdata = weigh(&first_fit.params, data, opts.predictability);
+    let mut base = calibrate::levenberg_marquardt(&first_fit.params, &knobs, &wdata);
+    base.cost_start = calibrate::cost(&nominal, &wdata);
+    base.moved = first_fit.moved;
+    let wfirst = wdata.first().unwrap_or(first);
+    let (base_analysis, _) = analyse(&base.params, wfirst)?;
 
     let mut cur = base.clone();
-    let mut cur_white = base_analysis.white;
-    let mut steps = Vec::new();
+    let mut steps: Vec<Step> = Vec::new();
     let mut last_scores = Vec::new();
-    let mut rejected: Option<(Effect, f64, f64)> = None;
-    let val_cost = |p: &ActuatorParams| validation.map(|v| calibrate::nrmse(p, v));
-    while steps.len() < opts.max_steps && !cur_white {
+    let mut rejected: Vec<Rejection> = Vec::new();
+    // The validation record is weighted by its predictability under the current model.
+    let val_weighted = |p: &ActuatorParams| -> Option<Data> {
+        validation.map(|v| {
+            if opts.predictability {
+                predictability::weigh(p, v).0
+            } else {
+                v.clone()
+            }
+        })
+    };
+    let material = |c: f64, data: &[Data]| -> bool {
+        c > opts.material_ratio.powi(2) * floor_cost(data, &sigma)
+    };
+    while steps.len() < opts.max_steps && material(cur.cost, &wdata) {
+        let floor = floor_cost(&wdata, &sigma);
         let cands: Vec<(Effect, Knob)> = opts
             .candidates
             .iter()
@@ -336,113 +521,222 @@ pub fn diagnose(
         if cands.is_empty() {
             break;
         }
-        let scores = score(&cur, &cands, data, max_v);
+        let scores = score(&cur, &cands, &wdata, max_v);
         let score_list: Vec<(Effect, f64, f64)> = scores
             .iter()
             .map(|(e, _, c, v)| (*e, rms_nrmse(*c), *v))
             .collect();
-        // Refit the best few (those predicted to explain anything at all): coarse search of
-        // every knob around the start, then Levenberg–Marquardt.
-        let mut screened_fits: Vec<(Fit, Effect)> = Vec::new();
-        for (e, k, c, v) in scores.iter().take(opts.refit_top) {
-            if c.is_nan() || *c >= cur.cost || *v == 0.0 {
-                continue;
+        last_scores = score_list.clone();
+        let poor = cur.cost > opts.poor_ratio.powi(2) * floor;
+        let take = if poor { scores.len() } else { opts.refit_top };
+        // The file's values with the effects added so far: a second start when a missing
+        // effect has dragged the current fit off (to a bound, or far above the floor).
+        let mut from_file = nominal;
+        for kn in &cur.knobs {
+            if let Param::Effect(added) = kn.param {
+                from_file.effects.set(added, cur.params.effects.get(added));
             }
+        }
+        let two_starts = poor || !calibrate::at_bounds(&cur).is_empty();
+        let n_eff = effective_samples(&cur.params, &wdata);
+        let mut judged: Vec<Judged> = Vec::new();
+        for (e, k, _, v) in scores.iter().take(take) {
             let mut ks = cur.knobs.clone();
             ks.push(k.clone());
-            // Two starts: the current fit, and the file's values (with the effects added so
-            // far) — a large missing effect can drag the current fit far off, to the bounds.
-            let mut from_file = nominal;
-            for kn in &cur.knobs {
-                if let Param::Effect(added) = kn.param {
-                    from_file.effects.set(added, cur.params.effects.get(added));
-                }
-            }
-            // The second start only when the current fit sits at a bound (dragged off).
-            let starts: Vec<ActuatorParams> = if calibrate::at_bounds(&cur).is_empty() {
-                vec![cur.params]
-            } else {
+            let starts: Vec<ActuatorParams> = if two_starts {
                 vec![cur.params, from_file]
+            } else {
+                vec![cur.params]
             };
+            let mut best: Option<Fit> = None;
             for start in starts {
                 // Start the effect at the better (by the actual cost) of the projection's
                 // value and the best of its grid with everything else held: the projection
                 // is linear and can undershoot a strongly nonlinear effect.
                 let mut p = start;
-                calibrate::set(&mut p, k.param, *v);
-                let mut best_c = calibrate::cost(&p, data);
+                if *v != 0.0 {
+                    calibrate::set(&mut p, k.param, *v);
+                }
+                let mut best_c = calibrate::cost(&p, &wdata);
                 let tried: Vec<(f64, ActuatorParams)> = grid(&start, *e, k, max_v)
                     .par_iter()
                     .map(|&g| {
                         let mut q = start;
                         calibrate::set(&mut q, k.param, g);
-                        (calibrate::cost(&q, data), q)
+                        (calibrate::cost(&q, &wdata), q)
                     })
                     .collect();
                 for (c, q) in tried {
-                    if c < best_c {
+                    if c < best_c || calibrate::get(&p, k.param) == 0.0 {
                         best_c = c;
                         p = q;
                     }
                 }
-                let (p1, _) = calibrate::coarse_search(&p, &ks, data, 1);
-                // Screening refit (few iterations); the winner is polished below.
-                let fit = calibrate::levenberg_marquardt_with(&p1, &ks, data, 4);
-                let better = screened_fits
-                    .iter()
-                    .find(|(_, done)| done == e)
-                    .is_none_or(|(f, _)| fit.cost < f.cost);
-                if better {
-                    screened_fits.retain(|(_, done)| done != e);
-                    screened_fits.push((fit, *e));
+                let (p1, _) = calibrate::coarse_search(&p, &ks, &wdata, 1);
+                let fit = calibrate::levenberg_marquardt_with(&p1, &ks, &wdata, 8);
+                if best.as_ref().is_none_or(|b| fit.cost < b.cost) {
+                    best = Some(fit);
                 }
             }
+            let Some(fit) = best else { continue };
+            let value = fit.values.last().copied().unwrap_or(f64::NAN);
+            let delta_bic = n_eff * (fit.cost / cur.cost).ln() + n_eff.ln();
+            let imp = implausibility(*e, value, opts.plausibility_slack);
+            let admissible = if delta_bic.is_nan() || delta_bic >= opts.bic_threshold {
+                Err(format!("did not earn its parameter (ΔBIC {delta_bic:.1})"))
+            } else if cur.cost - fit.cost < opts.min_excess_share * (cur.cost - floor) {
+                Err(format!(
+                    "explains {:.0} % of the error above the noise floor (needs {:.0} %)",
+                    100.0 * (cur.cost - fit.cost) / (cur.cost - floor).max(f64::MIN_POSITIVE),
+                    100.0 * opts.min_excess_share
+                ))
+            } else if imp > 1.0 {
+                let (lo, hi) = e.plausible_range();
+                Err(format!(
+                    "value {value:.4e} {} is implausible (plausible {lo:e} to {hi:e})",
+                    e.unit()
+                ))
+            } else {
+                Ok(())
+            };
+            judged.push(Judged {
+                distortion: distortion(&cur, &fit),
+                fit,
+                effect: *e,
+                value,
+                delta_bic,
+                admissible,
+                implausibility: imp,
+            });
         }
-        last_scores = score_list.clone();
-        let n_eff = effective_samples(&cur.params, data);
-        let Some((screened, effect, alternatives)) =
-            choose(&cur, screened_fits, n_eff, -opts.bic_threshold)
-        else {
+        judged.sort_by(|a, b| a.fit.cost.total_cmp(&b.fit.cost));
+        // The class of admissible explanations the data cannot tell from the best one,
+        // likelier first.
+        let best_adm = judged
+            .iter()
+            .filter(|j| j.admissible.is_ok())
+            .map(|j| j.fit.cost)
+            .fold(f64::INFINITY, f64::min);
+        let mut class: Vec<usize> = (0..judged.len())
+            .filter(|&i| {
+                judged.get(i).is_some_and(|j| {
+                    j.admissible.is_ok()
+                        && n_eff * (j.fit.cost / best_adm).ln() < -opts.bic_threshold
+                })
+            })
+            .collect();
+        class.sort_by(|&a, &b| {
+            let (ja, jb) = (&judged[a], &judged[b]);
+            (ja.implausibility > 0.0)
+                .cmp(&(jb.implausibility > 0.0))
+                .then(ja.distortion.total_cmp(&jb.distortion))
+        });
+        let vw = val_weighted(&cur.params);
+        let val_before = vw.as_ref().map(|v| calibrate::nrmse(&cur.params, v));
+        let val_floor = match (&vw, val_sigma) {
+            (Some(v), Some(s)) => noise::floor_nrmse(s, &v.weight, v.norm),
+            _ => 0.0,
+        };
+        let mut accepted: Option<(usize, (f64, f64))> = None;
+        for &i in &class {
+            let j = &judged[i];
+            let ho = held_out(&cur, &j.fit, &wdata);
+            let ho_ok = ho.1 < ho.0;
+            let val_ok = match (&vw, val_before) {
+                (Some(v), Some(a)) => {
+                    let b = calibrate::nrmse(&j.fit.params, v);
+                    // Not worse by more than a tenth of the validation noise energy.
+                    b * b <= a * a + 0.1 * val_floor * val_floor
+                }
+                _ => true,
+            };
+            if ho_ok && val_ok {
+                accepted = Some((i, ho));
+                break;
+            }
+            rejected.push(Rejection {
+                effect: j.effect,
+                value: j.value,
+                nrmse_after: rms_nrmse(j.fit.cost),
+                reason: if ho_ok {
+                    "worse on the validation record".to_string()
+                } else {
+                    format!(
+                        "does not hold on held-out segments (NRMSE {:.4} without, {:.4} with)",
+                        ho.0, ho.1
+                    )
+                },
+            });
+        }
+        let Some((i, ho)) = accepted else {
+            for j in judged.iter().filter(|j| j.admissible.is_err()) {
+                rejected.push(Rejection {
+                    effect: j.effect,
+                    value: j.value,
+                    nrmse_after: rms_nrmse(j.fit.cost),
+                    reason: j.admissible.clone().err().unwrap_or_default(),
+                });
+            }
+            rejected.sort_by(|a, b| a.nrmse_after.total_cmp(&b.nrmse_after));
             break;
         };
-        let fit = calibrate::levenberg_marquardt(&screened.params, &screened.knobs, data);
-        rejected = Some((
-            effect,
-            fit.values.last().copied().unwrap_or(f64::NAN),
-            rms_nrmse(fit.cost),
-        ));
-        let delta_bic = n_eff * (fit.cost / cur.cost).ln() + n_eff.ln();
-        let val_ok = match (val_cost(&cur.params), val_cost(&fit.params)) {
-            (Some(a), Some(b)) => b < a,
-            _ => true,
-        };
-        let material = fit.cost <= (1.0 - opts.min_explained) * cur.cost;
-        if delta_bic.is_nan() || delta_bic >= opts.bic_threshold || !val_ok || !material {
-            break;
-        }
+        rejected.clear();
+        let chosen = &judged[i];
+        let others: Vec<(Effect, f64)> = class
+            .iter()
+            .filter(|&&x| x != i)
+            .filter_map(|&x| judged.get(x).map(|j| (j.effect, j.value)))
+            .collect();
+        let separate_by = others
+            .first()
+            .map(|(o, _)| separating_measurement(chosen.effect, *o, &first.output))
+            .unwrap_or_default();
+        let nrmse_before = rms_nrmse(cur.cost);
+        let fit = calibrate::levenberg_marquardt(&chosen.fit.params, &chosen.fit.knobs, &wdata);
+        // The effect can change where the model is predictable (mesh damping calms rattle):
+        // weigh again and polish.
+        wdata = weigh(&fit.params, data, opts.predictability);
+        let fit = calibrate::levenberg_marquardt(&fit.params, &fit.knobs, &wdata);
         let idx = fit.knobs.len() - 1;
         steps.push(Step {
-            effect,
+            effect: chosen.effect,
             value: fit.values.get(idx).copied().unwrap_or(f64::NAN),
             std_error: fit.std_errors.get(idx).copied().unwrap_or(f64::NAN),
-            nrmse_before: rms_nrmse(cur.cost),
+            nrmse_before,
             nrmse_after: rms_nrmse(fit.cost),
-            delta_bic,
+            delta_bic: chosen.delta_bic,
             scores: score_list,
             partial: false,
-            indistinguishable_from: alternatives,
+            indistinguishable_from: others,
+            separate_by,
+            held_out: ho,
         });
-        rejected = None;
         cur = fit;
-        cur_white = analyse(&cur.params, first)?.0.white;
     }
-    let (final_analysis, _) = analyse(&cur.params, first)?;
+    let wfirst = wdata.first().unwrap_or(first);
+    let (final_analysis, final_trace) = analyse(&cur.params, wfirst)?;
+    let unexplained = material(cur.cost, &wdata);
     for st in &mut steps {
-        st.partial = !final_analysis.white;
+        st.partial = unexplained;
     }
-    let validation = match (val_cost(&nominal), val_cost(&cur.params)) {
-        (Some(a), Some(b)) => Some((a, b)),
+    let validation = match (val_weighted(&cur.params), val_weighted(&nominal)) {
+        (Some(vc), Some(vn)) => Some((
+            calibrate::nrmse(&nominal, &vn),
+            calibrate::nrmse(&cur.params, &vc),
+        )),
         _ => None,
+    };
+    let unpredictable_rms = {
+        let pick = |src: &[f64]| -> Vec<f64> {
+            src.iter()
+                .zip(&wfirst.weight)
+                .filter(|(_, w)| **w < 0.5)
+                .map(|(v, _)| *v)
+                .collect()
+        };
+        let (a, b) = (pick(&wfirst.y), pick(&final_trace.y));
+        let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt();
+        (!a.is_empty()).then(|| (rms(&a), rms(&b)))
     };
     Ok(Outcome {
         nominal,
@@ -450,8 +744,13 @@ pub fn diagnose(
         base_analysis,
         base,
         steps,
-        unexplained: !final_analysis.white,
+        unexplained,
         final_analysis,
+        final_nrmse_all_rows: calibrate::nrmse(&cur.params, first),
+        floor_nrmse: rms_nrmse(floor_cost(&wdata, &sigma)),
+        unpredictable_share: wdata.iter().map(Data::excluded_share).collect(),
+        noise_sigma: sigma,
+        unpredictable_rms,
         final_fit: cur,
         validation,
         last_scores,

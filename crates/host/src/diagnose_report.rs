@@ -69,7 +69,10 @@ impl Outcome {
                 "nrmse_after": s.nrmse_after,
                 "delta_bic": s.delta_bic,
                 "partial": s.partial,
-                "indistinguishable_from": s.indistinguishable_from.iter().map(|e| e.name()).collect::<Vec<_>>(),
+                "indistinguishable_from": s.indistinguishable_from.iter().map(|(e, _)| e.name()).collect::<Vec<_>>(),
+                "indistinguishable_values": s.indistinguishable_from.iter().map(|(e, x)| json!({"effect": e.name(), "value": x, "unit": e.unit()})).collect::<Vec<_>>(),
+                "separate_by": s.separate_by,
+                "held_out_nrmse": {"without": s.held_out.0, "with": s.held_out.1},
                 "candidate_scores": s.scores.iter().map(|(n, c, x)| json!({"effect": n.name(), "predicted_nrmse": c, "start_value": x})).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
             "added_effects": names,
@@ -83,12 +86,34 @@ impl Outcome {
             "unexplained": self.unexplained,
             "last_candidate_scores": self.last_scores.iter().map(|(n, c, x)| json!({"effect": n.name(), "predicted_nrmse": c, "start_value": x})).collect::<Vec<_>>(),
         });
-        if let Some((n, x, e)) = &self.rejected {
+        let rej = |r: &crate::diagnose::Rejection| json!({"effect": r.effect.name(), "value": r.value, "nrmse_after_refit": r.nrmse_after, "reason": r.reason});
+        if let Some(r) = self.rejected.first() {
+            insert(&mut v, "rejected", rej(r));
+        }
+        insert(
+            &mut v,
+            "rejected_candidates",
+            json!(self.rejected.iter().map(rej).collect::<Vec<_>>()),
+        );
+        insert(
+            &mut v,
+            "noise",
+            json!({"sigma": self.noise_sigma, "floor_nrmse": self.floor_nrmse}),
+        );
+        insert(
+            &mut v,
+            "unpredictable_share",
+            json!(self.unpredictable_share),
+        );
+        if let Some((a, b)) = self.unpredictable_rms {
             insert(
                 &mut v,
-                "rejected",
-                json!({"effect": n.name(), "value": x, "nrmse_after_refit": e, "reason": "did not earn its parameter (BIC or validation)"}),
+                "unpredictable_rms",
+                json!({"measured": a, "model": b}),
             );
+        }
+        if let Some(f) = v.get_mut("final") {
+            insert(f, "nrmse_all_rows", json!(self.final_nrmse_all_rows));
         }
         if self.unexplained {
             let (lo, hi, sh) = self.final_analysis.dominant_band();
@@ -125,6 +150,28 @@ impl Outcome {
             "nominal model (file):   NRMSE {:.4}  fit {:.1} %",
             a0.nrmse, a0.fit_percent
         );
+        let shares: Vec<String> = self
+            .unpredictable_share
+            .iter()
+            .map(|x| format!("{:.1} %", 100.0 * x))
+            .collect();
+        let _ = writeln!(
+            s,
+            "noise floor:            NRMSE {:.4} (noise sigma {}); unpredictable rows (gear rattle) weighted out: {}",
+            self.floor_nrmse,
+            self.noise_sigma
+                .iter()
+                .map(|x| format!("{x:.3e}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            shares.join(", ")
+        );
+        if let Some((a, m)) = self.unpredictable_rms {
+            let _ = writeln!(
+                s,
+                "  over those rows the RMS is {a:.4} measured, {m:.4} modelled (compared by statistics, not sample by sample)"
+            );
+        }
         let b = &self.base_analysis;
         let _ = writeln!(
             s,
@@ -178,19 +225,36 @@ impl Outcome {
                 st.nrmse_after,
                 st.delta_bic,
                 if st.partial {
-                    "  [partial: structure remains, not claimed with confidence]"
+                    "  [partial: a material residual remains, not claimed with confidence]"
                 } else {
                     ""
                 }
             );
+            if !st.indistinguishable_from.is_empty() {
+                let alts: Vec<String> = st
+                    .indistinguishable_from
+                    .iter()
+                    .map(|(e, x)| format!("{e} = {x:.4e} {}", e.unit()))
+                    .collect();
+                let _ = writeln!(
+                    s,
+                    "  the record explains as well: {}; to separate them, {}",
+                    alts.join(", "),
+                    st.separate_by
+                );
+            }
         }
         if self.steps.is_empty() {
             let _ = writeln!(s, "no effect earned its parameter");
-            if let Some((n, v, e)) = &self.rejected {
+            for r in self.rejected.iter().take(3) {
                 let _ = writeln!(
                     s,
-                    "  best candidate {n} = {v:.4e} {} would give NRMSE {e:.4}: not enough",
-                    n.unit()
+                    "  candidate {} = {:.4e} {} would give NRMSE {:.4}: {}",
+                    r.effect,
+                    r.value,
+                    r.effect.unit(),
+                    r.nrmse_after,
+                    r.reason
                 );
             }
         } else {
@@ -228,7 +292,9 @@ impl Outcome {
             let (lo, hi, sh) = f.dominant_band();
             let _ = writeln!(
                 s,
-                "UNEXPLAINED: residual still structured; {:.0} % of its energy in {:.0}-{:.0} Hz (peak {:.1} Hz)",
+                "UNEXPLAINED: a material residual remains above the noise floor (NRMSE {:.4} vs floor {:.4}); {:.0} % of its energy in {:.0}-{:.0} Hz (peak {:.1} Hz)",
+                f.nrmse,
+                self.floor_nrmse,
                 100.0 * sh,
                 lo,
                 hi,

@@ -99,10 +99,29 @@ pub fn spectrum(x: &[f64], h: f64) -> (Vec<f64>, Vec<f64>) {
 
 /// Analyses the residual `y − model.y`; `u` is the input, `h` the sample period.
 pub fn analyse(y: &[f64], model: &Trace, u: &[f64], h: f64) -> Analysis {
-    let e: Vec<f64> = y.iter().zip(&model.y).map(|(a, b)| a - b).collect();
+    analyse_weighted(y, model, u, h, &[])
+}
+
+/// [`analyse`] over the rows of weight `w` (0 to 1; missing rows weigh 1): the residual is
+/// `√w (y − model.y)`, so rows weighted out (unpredictable spans) count as zero residual, and
+/// the NRMSE is taken over the weighted rows.
+pub fn analyse_weighted(y: &[f64], model: &Trace, u: &[f64], h: f64, w: &[f64]) -> Analysis {
+    let wk = |k: usize| w.get(k).copied().unwrap_or(1.0).clamp(0.0, 1.0);
+    let e: Vec<f64> = y
+        .iter()
+        .zip(&model.y)
+        .enumerate()
+        .map(|(k, (a, b))| wk(k).sqrt() * (a - b))
+        .collect();
     let n = e.len().max(1);
-    let mean = y.iter().sum::<f64>() / n as f64;
-    let norm = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>().sqrt();
+    let sw: f64 = (0..y.len()).map(wk).sum::<f64>().max(f64::MIN_POSITIVE);
+    let mean = y.iter().enumerate().map(|(k, v)| wk(k) * v).sum::<f64>() / sw;
+    let norm = y
+        .iter()
+        .enumerate()
+        .map(|(k, v)| wk(k) * (v - mean).powi(2))
+        .sum::<f64>()
+        .sqrt();
     let enorm = e.iter().map(|v| v * v).sum::<f64>().sqrt();
     let nrmse = if norm > 0.0 {
         enorm / norm

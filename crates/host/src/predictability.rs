@@ -1,0 +1,183 @@
+//! Predictability: where the model itself says that it cannot be followed sample by sample.
+//!
+//! With backlash and little damping some regimes are chaotic (gear rattle, MODEL.md): two
+//! copies of the same actuator whose parameters differ by a fraction of a percent part within
+//! a fraction of a second, and no calibration can make a model follow a real rig there. The
+//! model says so itself: an ensemble of copies, each with the calibrated parameters moved by
+//! about their uncertainty, stays together where the motion is predictable (the spread is a
+//! few percent, proportional to the perturbation) and parts where it is not (the spread is of
+//! the order of the signal). Rows inside such spans are weighted out of fits and decisions,
+//! their share is reported, and they are compared by statistics instead (RMS level).
+
+use crate::calibrate::{self, Data, Param};
+use geared_servo::ActuatorParams;
+use rayon::prelude::*;
+
+/// Settings of the assessment.
+#[derive(Clone, Copy, Debug)]
+pub struct Settings {
+    /// Relative perturbation of the inertias and the stiffness in each ensemble member.
+    pub inertia_perturbation: f64,
+    /// Relative perturbation of the frictions and the backlash.
+    pub friction_perturbation: f64,
+    /// Window over which the spread is compared with the signal, s.
+    pub window_s: f64,
+    /// A window is unpredictable when the ensemble's RMS spread exceeds this share of the
+    /// signal's RMS there.
+    pub threshold: f64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            inertia_perturbation: 0.01,
+            friction_perturbation: 0.05,
+            window_s: 0.025,
+            threshold: 0.15,
+        }
+    }
+}
+
+/// The parameters an ensemble member moves, with the sign pattern of each of the four
+/// members (columns of a 4×4 Hadamard matrix without the constant one, repeated): every
+/// parameter moves both ways and no two members move the same way.
+const MOVES: [(Param, bool, [f64; 4]); 6] = [
+    (Param::MotorInertia, true, [1.0, -1.0, 1.0, -1.0]),
+    (Param::LoadInertia, true, [1.0, 1.0, -1.0, -1.0]),
+    (Param::StiffnessKeq, true, [1.0, -1.0, -1.0, 1.0]),
+    (Param::MotorFriction, false, [-1.0, 1.0, 1.0, -1.0]),
+    (Param::LoadFriction, false, [1.0, 1.0, -1.0, -1.0]),
+    (Param::Backlash, false, [-1.0, 1.0, -1.0, 1.0]),
+];
+
+/// Where one record can be followed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Predictability {
+    /// Weight of each row: 1 predictable, 0 not.
+    pub weight: Vec<f64>,
+    /// Share of the rows that are not predictable.
+    pub excluded_share: f64,
+    /// Unpredictable spans as (first row, one past the last row).
+    pub spans: Vec<(usize, usize)>,
+}
+
+impl Predictability {
+    /// Every row predictable (a record of `n` rows).
+    pub fn all(n: usize) -> Predictability {
+        Predictability {
+            weight: vec![1.0; n],
+            excluded_share: 0.0,
+            spans: Vec::new(),
+        }
+    }
+}
+
+/// Moves each perturbed parameter of `p` by its member's sign times its share; the
+/// stiffness needs the measured form (as [`calibrate::set`]).
+fn member(p: &ActuatorParams, m: usize, s: &Settings) -> ActuatorParams {
+    let mut q = *p;
+    for (param, inertial, signs) in MOVES {
+        let share = if inertial {
+            s.inertia_perturbation
+        } else {
+            s.friction_perturbation
+        };
+        let v = calibrate::get(p, param);
+        if v.is_finite() && v > 0.0 {
+            let sign = signs.get(m % 4).copied().unwrap_or(1.0);
+            calibrate::set(&mut q, param, v * (1.0 + sign * share));
+        }
+    }
+    q
+}
+
+/// Assesses `d` under `p` with the default settings.
+pub fn assess(p: &ActuatorParams, d: &Data) -> Predictability {
+    assess_with(p, d, &Settings::default())
+}
+
+/// Assesses `d` under `p`: runs the model and four perturbed copies over the record and marks
+/// the windows where the copies' RMS spread exceeds `threshold` times the RMS of the model's
+/// output there (against a floor of 2 % of the record's RMS, so that a quiet window is not
+/// judged by a ratio of two small numbers), widened by one window on each side. Everything
+/// is predictable when the model cannot be run.
+pub fn assess_with(p: &ActuatorParams, d: &Data, s: &Settings) -> Predictability {
+    let n = d.y.len();
+    let Some(center) = calibrate::simulate(p, d) else {
+        return Predictability::all(n);
+    };
+    let members: Vec<Vec<f64>> = (0..4)
+        .into_par_iter()
+        .filter_map(|m| calibrate::simulate(&member(p, m, s), d).map(|t| t.y))
+        .collect();
+    if members.is_empty() || n == 0 {
+        return Predictability::all(n);
+    }
+    let spread2: Vec<f64> = (0..n)
+        .map(|k| {
+            let c = center.y.get(k).copied().unwrap_or(0.0);
+            members
+                .iter()
+                .map(|y| (y.get(k).copied().unwrap_or(c) - c).powi(2))
+                .sum::<f64>()
+                / members.len() as f64
+        })
+        .collect();
+    let global_ms = center.y.iter().map(|v| v * v).sum::<f64>() / n as f64;
+    let w = ((s.window_s / d.sample_period_s).round() as usize).max(4);
+    let windows = n.div_ceil(w);
+    let bad: Vec<bool> = (0..windows)
+        .map(|j| {
+            let lo = j * w;
+            let hi = (lo + w).min(n);
+            let len = (hi - lo).max(1) as f64;
+            let sp = spread2.get(lo..hi).unwrap_or(&[]).iter().sum::<f64>() / len;
+            let sig = center
+                .y
+                .get(lo..hi)
+                .unwrap_or(&[])
+                .iter()
+                .map(|v| v * v)
+                .sum::<f64>()
+                / len;
+            let scale = sig.max(0.02f64.powi(2) * global_ms);
+            sp > s.threshold.powi(2) * scale
+        })
+        .collect();
+    // Widen by one window each side: a trajectory parts before the spread crosses the line.
+    let widened: Vec<bool> = (0..windows)
+        .map(|j| {
+            bad.get(j).copied().unwrap_or(false)
+                || (j > 0 && bad.get(j - 1).copied().unwrap_or(false))
+                || bad.get(j + 1).copied().unwrap_or(false)
+        })
+        .collect();
+    let mut weight = vec![1.0; n];
+    let mut spans: Vec<(usize, usize)> = Vec::new();
+    for (j, &b) in widened.iter().enumerate() {
+        if !b {
+            continue;
+        }
+        let lo = j * w;
+        let hi = (lo + w).min(n);
+        for x in weight.get_mut(lo..hi).unwrap_or(&mut []) {
+            *x = 0.0;
+        }
+        match spans.last_mut() {
+            Some(last) if last.1 == lo => last.1 = hi,
+            _ => spans.push((lo, hi)),
+        }
+    }
+    let excluded = weight.iter().filter(|x| **x < 0.5).count() as f64 / n as f64;
+    Predictability {
+        weight,
+        excluded_share: excluded,
+        spans,
+    }
+}
+
+/// `d` weighted by its predictability under `p`.
+pub fn weigh(p: &ActuatorParams, d: &Data) -> (Data, Predictability) {
+    let pr = assess(p, d);
+    (d.with_weights(&pr.weight), pr)
+}
