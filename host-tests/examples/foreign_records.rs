@@ -44,7 +44,10 @@ fn run() -> Result<(), String> {
     let mut seconds: Option<f64> = None;
     let usage = "usage: foreign_records DIR [--kind NAME] [--draw N] [--seconds S]";
     while let Some(a) = args.next() {
-        let mut value = |what: &str| args.next().ok_or_else(|| format!("{what} needs a value; {usage}"));
+        let mut value = |what: &str| {
+            args.next()
+                .ok_or_else(|| format!("{what} needs a value; {usage}"))
+        };
         match a.as_str() {
             "--kind" => {
                 let v = value("--kind")?;
@@ -53,7 +56,11 @@ fn run() -> Result<(), String> {
                     format!("unknown kind `{v}` (known: {})", names.join(", "))
                 })?;
             }
-            "--draw" => draw = value("--draw")?.parse().map_err(|e| format!("--draw: {e}"))?,
+            "--draw" => {
+                draw = value("--draw")?
+                    .parse()
+                    .map_err(|e| format!("--draw: {e}"))?
+            }
             "--seconds" => {
                 let s: f64 = value("--seconds")?
                     .parse()

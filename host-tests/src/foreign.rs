@@ -283,7 +283,10 @@ pub fn true_unit(draw: u64) -> Result<ActuatorParams, HostError> {
 /// 4–8e-6, load_viscous 0.01–0.03, mesh_damping 0.05–0.12, hinge_stiffness 5–15, input_delay
 /// 0.6–1.2 ms, voltage_limit 6.5–8 V, tach_gain ±(0.06–0.12).
 pub fn effect_value(e: Effect, draw: u64) -> f64 {
-    let mut r = rng(draw, 100 + Effect::ALL.iter().position(|&x| x == e).unwrap_or(0) as u64);
+    let mut r = rng(
+        draw,
+        100 + Effect::ALL.iter().position(|&x| x == e).unwrap_or(0) as u64,
+    );
     match e {
         Effect::MotorViscous => r.gen_range(4e-6..8e-6),
         Effect::LoadViscous => r.gen_range(0.01..0.03),
@@ -298,7 +301,7 @@ pub fn effect_value(e: Effect, draw: u64) -> f64 {
 /// The second mode of [`Kind::OutOfLibrary`] for `draw` on a unit whose total load inertia
 /// is `load_inertia` (kg·m²): J2 is 0.2 of it, at 150–250 Hz on a held load, with a damping
 /// ratio of 0.02–0.04.
-pub fn second_mode(draw: u64, load_inertia: f64) -> SecondMode {
+pub fn second_mode_of(draw: u64, load_inertia: f64) -> SecondMode {
     let mut r = rng(draw, 200);
     let j2 = 0.2 * load_inertia;
     let f = r.gen_range(150.0..250.0);
@@ -361,6 +364,31 @@ pub struct ForeignCase {
     pub true_nrmse_estimation: f64,
     /// The same on the validation record.
     pub true_nrmse_validation: f64,
+    /// The same burst by burst on the estimation record (rattle spans show up here).
+    pub true_fit_by_burst: Vec<BurstFit>,
+}
+
+/// How well the true parameters (emulator) follow one burst of the estimation record.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BurstFit {
+    /// Burst frequency, Hz.
+    pub f_hz: f64,
+    /// NRMSE over the burst and its rest, normalised by that span's own data.
+    pub nrmse: f64,
+    /// Share of the whole record's true-parameter residual energy in this span.
+    pub residual_share: f64,
+}
+
+/// Rattle spans of a case: bursts where the true parameters miss by more than a threshold.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rattle {
+    /// Their frequencies, Hz.
+    pub bursts_hz: Vec<f64>,
+    /// Their share of the true-parameter residual energy.
+    pub residual_share: f64,
+    /// True-parameter NRMSE of the rest of the record (normalised like the whole record's:
+    /// the residual outside those bursts over the whole record's norm).
+    pub nrmse_outside: f64,
 }
 
 impl ForeignCase {
@@ -371,6 +399,23 @@ impl ForeignCase {
             v * self.resistance_scale
         } else {
             v
+        }
+    }
+
+    /// The bursts whose true-parameter NRMSE exceeds `threshold` (e.g. five times the
+    /// noise floor): where the emulator cannot follow the reference sample by sample
+    /// (chaotic gear rattle, MODEL.md; or the second mode).
+    pub fn rattle(&self, threshold: f64) -> Rattle {
+        let bad: Vec<&BurstFit> = self
+            .true_fit_by_burst
+            .iter()
+            .filter(|b| b.nrmse > threshold)
+            .collect();
+        let share: f64 = bad.iter().map(|b| b.residual_share).sum();
+        Rattle {
+            bursts_hz: bad.iter().map(|b| b.f_hz).collect(),
+            residual_share: share,
+            nrmse_outside: self.true_nrmse_estimation * (1.0 - share).max(0.0).sqrt(),
         }
     }
 
@@ -398,26 +443,38 @@ impl Default for Making {
     }
 }
 
-/// The true unit of `(kind, draw)` with its hidden effects, its second mode if any, the
-/// expected effects and the resistance scale.
-pub fn truth(
-    kind: Kind,
-    draw: u64,
-) -> Result<(ActuatorParams, Option<SecondMode>, Vec<(Effect, f64)>), HostError> {
-    let mut p = true_unit(draw)?;
+/// The true unit of a case.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Truth {
+    /// Its parameters in the model's form, hidden effects set (with a second mode: the rigid
+    /// equivalent, whose load inertia is the total).
+    pub params: ActuatorParams,
+    /// The second mode, for [`Kind::OutOfLibrary`].
+    pub second_mode: Option<SecondMode>,
+    /// Hidden effects and their true values, in their units.
+    pub expected: Vec<(Effect, f64)>,
+}
+
+/// The true unit of `(kind, draw)`: [`true_unit`] with the kind's hidden effects or mode.
+pub fn truth(kind: Kind, draw: u64) -> Result<Truth, HostError> {
+    let mut params = true_unit(draw)?;
     let mut expected = Vec::new();
-    let mut mode = None;
+    let mut second_mode = None;
     match kind {
         Kind::Clean => {}
         Kind::Single(e) => expected.push((e, effect_value(e, draw))),
         Kind::Pair => expected.extend(PAIR.iter().map(|&e| (e, effect_value(e, draw)))),
-        Kind::OutOfLibrary => mode = Some(second_mode(draw, p.load.inertia_kg_m2)),
+        Kind::OutOfLibrary => second_mode = Some(second_mode_of(draw, params.load.inertia_kg_m2)),
     }
     for &(e, v) in &expected {
-        p.effects.set(e, v);
+        params.effects.set(e, v);
     }
-    p.derived()?;
-    Ok((p, mode, expected))
+    params.derived()?;
+    Ok(Truth {
+        params,
+        second_mode,
+        expected,
+    })
 }
 
 /// Clean reference records of `p` (with `mode`) for `volts`: (tachometer V, load angle rad),
@@ -501,7 +558,11 @@ pub fn case(kind: Kind, draw: u64) -> Result<ForeignCase, HostError> {
 /// Builds case `(kind, draw)` with records made as `making` says.
 pub fn case_with(kind: Kind, draw: u64, making: &Making) -> Result<ForeignCase, HostError> {
     let file = file_params();
-    let (truth, mode, expected) = truth(kind, draw)?;
+    let Truth {
+        params: truth,
+        second_mode: mode,
+        expected,
+    } = truth(kind, draw)?;
     let est_v = making.stepped_sine.volts(SAMPLE_PERIOD_S);
     let val_v = validation_volts(1000 + draw, SAMPLE_PERIOD_S);
     let (est_clean, val_clean) = rayon::join(
@@ -528,6 +589,7 @@ pub fn case_with(kind: Kind, draw: u64, making: &Making) -> Result<ForeignCase, 
     )?;
     let estimation = Data::from_record(&est_rec, &format!("{label} estimation"))?;
     let validation = Data::from_record(&val_rec, &format!("{label} validation"))?;
+    let true_fit_by_burst = by_burst(&truth, &estimation, &making.stepped_sine);
     Ok(ForeignCase {
         kind,
         draw,
@@ -539,6 +601,7 @@ pub fn case_with(kind: Kind, draw: u64, making: &Making) -> Result<ForeignCase, 
         validation_floor: val_noise / validation.norm,
         true_nrmse_estimation: calibrate::nrmse(&truth, &estimation),
         true_nrmse_validation: calibrate::nrmse(&truth, &validation),
+        true_fit_by_burst,
         truth,
         expected,
         estimation_record: est_rec,
@@ -546,6 +609,31 @@ pub fn case_with(kind: Kind, draw: u64, making: &Making) -> Result<ForeignCase, 
         estimation,
         validation,
     })
+}
+
+/// The emulator with `p` against the data `d` burst by burst (`ss` made its command).
+fn by_burst(p: &ActuatorParams, d: &Data, ss: &SteppedSine) -> Vec<BurstFit> {
+    let Some(t) = calibrate::simulate(p, d) else {
+        return Vec::new();
+    };
+    let e2: Vec<f64> = t.y.iter().zip(&d.y).map(|(a, b)| (a - b).powi(2)).collect();
+    let total: f64 = e2.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+    let (nb, nr) = ss.period_samples(d.sample_period_s);
+    let per = nb + nr;
+    (0..ss.bursts)
+        .filter_map(|i| {
+            let span = i * per..((i + 1) * per).min(d.y.len());
+            let y = d.y.get(span.clone())?;
+            let m = y.iter().sum::<f64>() / y.len().max(1) as f64;
+            let norm2: f64 = y.iter().map(|v| (v - m).powi(2)).sum();
+            let err2: f64 = e2.get(span)?.iter().sum();
+            Some(BurstFit {
+                f_hz: ss.frequency_hz(i),
+                nrmse: (err2 / norm2.max(f64::MIN_POSITIVE)).sqrt(),
+                residual_share: err2 / total,
+            })
+        })
+        .collect()
 }
 
 /// Every kind for every draw of `draws`, made in parallel, in the order kind-major within
@@ -579,7 +667,8 @@ pub struct BurstGap {
 /// compared burst by burst, and over the whole record: (bursts, whole-record gap at
 /// [`FINE_STEP_S`], whole-record gap at 0.5 µs), gaps relative to the 1 µs record.
 pub fn fine_step_check(kind: Kind, draw: u64) -> Result<(Vec<BurstGap>, f64, f64), HostError> {
-    let (p, mode, _) = truth(kind, draw)?;
+    let t = truth(kind, draw)?;
+    let (p, mode) = (t.params, t.second_mode);
     let ss = SteppedSine::default();
     let v = ss.volts(SAMPLE_PERIOD_S);
     let steps = [FINE_STEP_S, 1e-6, 0.5e-6];

@@ -466,7 +466,10 @@ mod tests {
         let yq = Reference::new(&q, 1e-6).unwrap().run_tach(&fine_v);
         for (k, a) in y.iter().enumerate() {
             let b = yq[4 * k];
-            assert!((a - b).abs() <= 1e-9 * (1.0 + b.abs()), "row {k}: {a} vs {b}");
+            assert!(
+                (a - b).abs() <= 1e-9 * (1.0 + b.abs()),
+                "row {k}: {a} vs {b}"
+            );
         }
     }
 
