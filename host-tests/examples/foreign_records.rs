@@ -11,7 +11,7 @@
 //! `--seconds` sets the length of the estimation record (the stepped sine gets as many
 //! 0.3 s bursts with 0.1 s rests as fit, 10–300 Hz; default 8.8 s): 20 gives the benchmark
 //! record "diagnose on 20 s of 2 kHz data with all candidates". Then, e.g.:
-//! `geared-servo diagnose --params DIR/file.toml DIR/estimation.csv --validation DIR/validation.csv`.
+//! `geared-servo diagnose --params DIR/file.toml --data DIR/estimation.csv --validate DIR/validation.csv`.
 
 use geared_servo_host::params_file;
 use geared_servo_host::record::{self, Record};
