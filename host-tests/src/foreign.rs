@@ -377,6 +377,8 @@ pub struct BurstFit {
     pub nrmse: f64,
     /// Share of the whole record's true-parameter residual energy in this span.
     pub residual_share: f64,
+    /// NRMSE of the noise alone over the span, normalised the same way.
+    pub floor: f64,
 }
 
 /// Rattle spans of a case: bursts where the true parameters miss by more than a threshold.
@@ -402,14 +404,14 @@ impl ForeignCase {
         }
     }
 
-    /// The bursts whose true-parameter NRMSE exceeds `threshold` (e.g. five times the
-    /// noise floor): where the emulator cannot follow the reference sample by sample
-    /// (chaotic gear rattle, MODEL.md; or the second mode).
-    pub fn rattle(&self, threshold: f64) -> Rattle {
+    /// The bursts whose true-parameter NRMSE exceeds `floors` times their own noise floor
+    /// (e.g. 5): where the emulator cannot follow the reference sample by sample (chaotic
+    /// gear rattle, MODEL.md; or the second mode).
+    pub fn rattle(&self, floors: f64) -> Rattle {
         let bad: Vec<&BurstFit> = self
             .true_fit_by_burst
             .iter()
-            .filter(|b| b.nrmse > threshold)
+            .filter(|b| b.nrmse > floors * b.floor)
             .collect();
         let share: f64 = bad.iter().map(|b| b.residual_share).sum();
         Rattle {
@@ -573,10 +575,12 @@ pub fn case_with(kind: Kind, draw: u64, making: &Making) -> Result<ForeignCase, 
     // Odd draws also carry the load encoder.
     let angle = draw % 2 == 1;
     let stream = 300 + 2 * kind.index();
+    let est_clean = est_clean?;
+    let est_clean_tach = est_clean.0.clone();
     let (est_rec, est_noise) = measure(
         &format!("{label} estimation"),
         est_v,
-        est_clean?,
+        est_clean,
         angle,
         rng(draw, stream),
     )?;
@@ -589,7 +593,7 @@ pub fn case_with(kind: Kind, draw: u64, making: &Making) -> Result<ForeignCase, 
     )?;
     let estimation = Data::from_record(&est_rec, &format!("{label} estimation"))?;
     let validation = Data::from_record(&val_rec, &format!("{label} validation"))?;
-    let true_fit_by_burst = by_burst(&truth, &estimation, &making.stepped_sine);
+    let true_fit_by_burst = by_burst(&truth, &estimation, &est_clean_tach, &making.stepped_sine);
     Ok(ForeignCase {
         kind,
         draw,
@@ -611,8 +615,9 @@ pub fn case_with(kind: Kind, draw: u64, making: &Making) -> Result<ForeignCase, 
     })
 }
 
-/// The emulator with `p` against the data `d` burst by burst (`ss` made its command).
-fn by_burst(p: &ActuatorParams, d: &Data, ss: &SteppedSine) -> Vec<BurstFit> {
+/// The emulator with `p` against the data `d` burst by burst (`ss` made its command;
+/// `clean` is the data without noise).
+fn by_burst(p: &ActuatorParams, d: &Data, clean: &[f64], ss: &SteppedSine) -> Vec<BurstFit> {
     let Some(t) = calibrate::simulate(p, d) else {
         return Vec::new();
     };
@@ -626,11 +631,18 @@ fn by_burst(p: &ActuatorParams, d: &Data, ss: &SteppedSine) -> Vec<BurstFit> {
             let y = d.y.get(span.clone())?;
             let m = y.iter().sum::<f64>() / y.len().max(1) as f64;
             let norm2: f64 = y.iter().map(|v| (v - m).powi(2)).sum();
-            let err2: f64 = e2.get(span)?.iter().sum();
+            let err2: f64 = e2.get(span.clone())?.iter().sum();
+            let noise2: f64 = y
+                .iter()
+                .zip(clean.get(span)?)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum();
+            let norm2 = norm2.max(f64::MIN_POSITIVE);
             Some(BurstFit {
                 f_hz: ss.frequency_hz(i),
-                nrmse: (err2 / norm2.max(f64::MIN_POSITIVE)).sqrt(),
+                nrmse: (err2 / norm2).sqrt(),
                 residual_share: err2 / total,
+                floor: (noise2 / norm2).sqrt(),
             })
         })
         .collect()

@@ -121,6 +121,8 @@ struct Row {
     kind: Kind,
     right: bool,
     values_ok: bool,
+    /// Expected effects named as themselves (their values were checked).
+    named: usize,
     nrmse_ok: bool,
     steps_on_clean: bool,
     wall: Duration,
@@ -175,10 +177,10 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
         cases[0].validation.y.len() as f64 * foreign::SAMPLE_PERIOD_S,
     );
     eprintln!(
-        "  (est: true-parameter NRMSE of the emulator on the estimation record; 'outside' is that NRMSE without the bursts it misses by more than {RATTLE_FLOORS} x the floor, listed after 'rattle' with their share of its residual energy)"
+        "  (est: true-parameter NRMSE of the emulator on the estimation record; 'outside' is that NRMSE without the bursts it misses by more than {RATTLE_FLOORS} x their own noise floor, listed after 'rattle' with their share of its residual energy)"
     );
     for c in &cases {
-        let r = c.rattle(RATTLE_FLOORS * c.estimation_floor);
+        let r = c.rattle(RATTLE_FLOORS);
         eprintln!(
             "  {:<18} s {:.3}  est: true {:.4} (outside {:.4}) floor {:.4}  val: true {:.4} floor {:.4}  {}{}\n      rattle {:.0?} Hz, {:.0} % of the true residual",
             c.label(),
@@ -218,6 +220,7 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
                     kind: c.kind,
                     right: false,
                     values_ok: false,
+                    named: 0,
                     nrmse_ok: false,
                     steps_on_clean: c.kind == Kind::Clean,
                     wall,
@@ -306,6 +309,7 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
             kind: c.kind,
             right,
             values_ok,
+            named: rec.len(),
             nrmse_ok,
             steps_on_clean: c.kind == Kind::Clean && !out.steps.is_empty(),
             wall,
@@ -325,10 +329,11 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
     for k in Kind::all() {
         let of: Vec<&Row> = rows.iter().filter(|r| r.kind == k).collect();
         eprintln!(
-            "  {:<16} right {}/{}  values ok {}/{}  nrmse ok {}/{}",
+            "  {:<16} right {}/{}  effects named as themselves {}, values ok in {}/{} cases  nrmse ok {}/{}",
             k.name(),
             of.iter().filter(|r| r.right).count(),
             of.len(),
+            of.iter().map(|r| r.named).sum::<usize>(),
             of.iter().filter(|r| r.values_ok).count(),
             of.len(),
             of.iter().filter(|r| r.nrmse_ok).count(),
