@@ -197,7 +197,7 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
                 ""
             },
             r.bursts_hz,
-            100.0 * r.residual_share
+            (100.0 * r.residual_share).max(0.0)
         );
     }
 
