@@ -1,8 +1,10 @@
 //! Shared helpers for the host tests: an independent fine-step reference integrator of the
-//! same physics, and tolerance helpers.
+//! same physics, tolerance helpers, and the records of the foreign diagnosis suite.
 
 #[cfg(feature = "host")]
 pub mod catalogue;
+#[cfg(feature = "host")]
+pub mod foreign;
 #[cfg(feature = "host")]
 pub mod no_answer_catalogue;
 pub mod records;

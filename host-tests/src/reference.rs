@@ -1,14 +1,23 @@
-//! An independent `f64` integrator of the same physics, for accuracy tests.
+//! An independent `f64` integrator of the same physics, for accuracy tests and for records
+//! that do not come from the emulator (the `foreign` diagnosis suite).
 //!
 //! Deliberately different from the emulator: absolute angles θm and θL (not the twist),
 //! classical fourth-order Runge–Kutta at a fixed fine step (1 µs by default, 500 steps per
 //! emulator step), the dead zone and Coulomb friction evaluated inside every RK stage, and
 //! stick/slip decided after each fine step with stuck flags (a body whose velocity changes
 //! sign while its driving torque is within static friction is stopped and held until that
-//! torque exceeds it). It shares no code with `geared_servo::plant`; it reads only the
-//! parameter struct and the derived N, k_eq and δ.
+//! torque exceeds it). The input delay is integrated piecewise: each sample period is split
+//! at the instant the delayed command changes. It shares no code with `geared_servo::plant`;
+//! it reads only the parameter struct and the derived N, k_eq and δ.
+//!
+//! Beyond the emulator's physics it can carry a second structural mode
+//! ([`Reference::with_second_mode`]): an inertia joined to the load by a torsional spring and
+//! damper (a fin's bending/torsion mode), which no effect of the library represents.
 
 use geared_servo::{ActuatorParams, ParamError};
+
+/// Number of states: i, θm, ωm, θL, ωL, θ2, ω2.
+const NS: usize = 7;
 
 /// Fine-step reference simulator.
 #[derive(Clone, Debug)]
@@ -30,13 +39,25 @@ pub struct Reference {
     k: f64,
     delta: f64,
     vmax: f64,
+    /// Input delay, s.
+    delay: f64,
+    /// Second structural mode: inertia J2 (kg·m²; 0 = no mode), spring k2 (N·m/rad) and
+    /// damper c2 (N·m·s/rad) between the load and J2.
+    j2: f64,
+    k2: f64,
+    c2: f64,
+    /// Sample period, s.
+    period: f64,
     /// Fine steps per sample period.
     pub substeps: usize,
     h: f64,
-    /// State: i, θm, ωm, θL, ωL.
-    pub s: [f64; 5],
+    /// State: i (A), θm (rad), ωm (rad/s), θL (rad), ωL (rad/s), θ2 (rad), ω2 (rad/s) (the
+    /// last two stay 0 without a second mode).
+    pub s: [f64; NS],
     stuck_m: bool,
     stuck_l: bool,
+    /// Commands applied so far, V (only those the delay still needs are kept).
+    history: Vec<f64>,
 }
 
 impl Reference {
@@ -66,15 +87,39 @@ impl Reference {
             } else {
                 f64::INFINITY
             },
+            delay: p.effects.input_delay.max(0.0),
+            j2: 0.0,
+            k2: 0.0,
+            c2: 0.0,
+            period: p.sample_period_s,
             substeps,
             h: p.sample_period_s / substeps as f64,
-            s: [0.0; 5],
+            s: [0.0; NS],
             stuck_m: true,
             stuck_l: true,
+            history: Vec::new(),
         })
     }
 
-    fn gear_torque(&self, s: &[f64; 5]) -> f64 {
+    /// Adds a second structural mode outside the library's model: an inertia `j2` (kg·m²)
+    /// joined to the load by a torsional spring `k2` (N·m/rad) and a damper `c2`
+    /// (N·m·s/rad), e.g. a fin's bending or torsion mode. Its natural frequency on a held
+    /// load is √(k2/j2)/2π. The load inertia of the parameters is then the rest of the load
+    /// (hub and shaft). `j2 <= 0` means no mode.
+    pub fn with_second_mode(mut self, j2: f64, k2: f64, c2: f64) -> Self {
+        if j2 > 0.0 {
+            self.j2 = j2;
+            self.k2 = k2;
+            self.c2 = c2;
+        } else {
+            self.j2 = 0.0;
+            self.k2 = 0.0;
+            self.c2 = 0.0;
+        }
+        self
+    }
+
+    fn gear_torque(&self, s: &[f64; NS]) -> f64 {
         let x = s[1] / self.n - s[3];
         let xd = s[2] / self.n - s[4];
         if x > self.delta {
@@ -86,12 +131,21 @@ impl Reference {
         }
     }
 
+    /// Torque of the second mode's spring and damper on J2 (minus that on the load), N·m.
+    fn mode_torque(&self, s: &[f64; NS]) -> f64 {
+        if self.j2 > 0.0 {
+            self.k2 * (s[3] - s[5]) + self.c2 * (s[4] - s[6])
+        } else {
+            0.0
+        }
+    }
+
     /// Torques on (motor, load) other than Coulomb friction.
-    fn drives(&self, s: &[f64; 5]) -> (f64, f64) {
+    fn drives(&self, s: &[f64; NS]) -> (f64, f64) {
         let tl = self.gear_torque(s);
         (
             self.kt * s[0] - tl / self.n - self.cm * s[2],
-            tl - self.cl * s[4] - self.kh * s[3],
+            tl - self.cl * s[4] - self.kh * s[3] - self.mode_torque(s),
         )
     }
 
@@ -108,7 +162,7 @@ impl Reference {
         }
     }
 
-    fn deriv(&self, s: &[f64; 5], v: f64) -> [f64; 5] {
+    fn deriv(&self, s: &[f64; NS], v: f64) -> [f64; NS] {
         let (dm, dl) = self.drives(s);
         let am = if self.stuck_m {
             0.0
@@ -120,38 +174,47 @@ impl Reference {
         } else {
             (dl + Self::coulomb(s[4], dl, self.tfl)) / self.jl
         };
+        let a2 = if self.j2 > 0.0 {
+            self.mode_torque(s) / self.j2
+        } else {
+            0.0
+        };
         [
             (v - self.r * s[0] - self.kb * s[2]) / self.l,
             s[2],
             am,
             s[4],
             al,
+            s[6],
+            a2,
         ]
     }
 
-    fn rk4(&mut self, v: f64) {
-        self.rk4_fn(&|_| v, 0.0);
-    }
-
-    /// One RK4 step with the voltage a function of time since `t0` (the step's start).
-    fn rk4_fn(&mut self, v_of: &dyn Fn(f64) -> f64, t0: f64) {
-        let h = self.h;
-        let s = self.s;
+    /// One RK4 step of length `h` with the voltage a function of time since `t0` (the
+    /// step's start); the voltage is saturated here.
+    fn rk4_fn(&mut self, v_of: &dyn Fn(f64) -> f64, t0: f64, h: f64) {
         let vmax = self.vmax;
         let v = |t: f64| v_of(t).clamp(-vmax, vmax);
-        let add = |a: &[f64; 5], b: &[f64; 5], c: f64| {
+        self.rk4_with(h, [v(t0), v(t0 + h / 2.0), v(t0 + h)]);
+    }
+
+    /// One RK4 step of length `h` with the (already saturated) voltage at its start, middle
+    /// and end.
+    fn rk4_with(&mut self, h: f64, v: [f64; 3]) {
+        let s = self.s;
+        let add = |a: &[f64; NS], b: &[f64; NS], c: f64| {
             let mut o = *a;
             for (oi, bi) in o.iter_mut().zip(b) {
                 *oi += c * bi;
             }
             o
         };
-        let k1 = self.deriv(&s, v(t0));
-        let k2 = self.deriv(&add(&s, &k1, h / 2.0), v(t0 + h / 2.0));
-        let k3 = self.deriv(&add(&s, &k2, h / 2.0), v(t0 + h / 2.0));
-        let k4 = self.deriv(&add(&s, &k3, h), v(t0 + h));
+        let k1 = self.deriv(&s, v[0]);
+        let k2 = self.deriv(&add(&s, &k1, h / 2.0), v[1]);
+        let k3 = self.deriv(&add(&s, &k2, h / 2.0), v[1]);
+        let k4 = self.deriv(&add(&s, &k3, h), v[2]);
         let mut n = s;
-        for j in 0..5 {
+        for j in 0..NS {
             n[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
         }
         // Stick/slip after the fine step.
@@ -181,30 +244,89 @@ impl Reference {
         self.s = n;
     }
 
-    /// Applies `v` for one sample period (zero-order hold).
-    pub fn step(&mut self, v: f64) {
+    /// Holds the (saturated) voltage `v` for `len` s, in fine steps of at most the fine step.
+    fn hold(&mut self, v: f64, len: f64, steps: usize) {
         let v = v.clamp(-self.vmax, self.vmax);
-        for _ in 0..self.substeps {
-            self.rk4(v);
+        let h = len / steps as f64;
+        for _ in 0..steps {
+            self.rk4_with(h, [v, v, v]);
+        }
+    }
+
+    /// Applies command `v` for one sample period (zero-order hold). With an input delay d
+    /// the voltage at time t is the command of the period that held at t − d, saturated
+    /// after the delay: the period is split where the delayed command changes.
+    pub fn step(&mut self, v: f64) {
+        if self.delay <= 0.0 {
+            self.hold(v, self.period, self.substeps);
+            return;
+        }
+        self.history.push(v);
+        let ratio = self.delay / self.period;
+        // Whole periods m and the fraction φ/h (a delay within 1e-9 period of a whole number
+        // is taken as whole).
+        let mut m = ratio.floor();
+        let mut frac = ratio - m;
+        if frac > 1.0 - 1e-9 {
+            m += 1.0;
+            frac = 0.0;
+        } else if frac < 1e-9 {
+            frac = 0.0;
+        }
+        let m = m as usize;
+        let k = self.history.len() - 1;
+        let cmd = |j: Option<usize>| j.and_then(|j| self.history.get(j)).copied().unwrap_or(0.0);
+        let late = cmd(k.checked_sub(m));
+        let early = cmd(k.checked_sub(m + 1));
+        if frac > 0.0 {
+            let first = frac * self.period;
+            let n1 = ((first / self.h) - 1e-9).ceil().max(1.0) as usize;
+            let n2 = (((self.period - first) / self.h) - 1e-9).ceil().max(1.0) as usize;
+            self.hold(early, first, n1);
+            self.hold(late, self.period - first, n2);
+        } else {
+            self.hold(late, self.period, self.substeps);
+        }
+        // Keep only the commands a later period can still need.
+        if self.history.len() > m + 2 {
+            let drop = self.history.len() - (m + 2);
+            self.history.drain(..drop);
         }
     }
 
     /// Applies the continuous voltage `v_of(t)` (t in s from the start of this sample
-    /// period) for one sample period.
+    /// period) for one sample period. The input delay is not applied here: `v_of` is the
+    /// voltage at the terminals (saturated by the voltage limit).
     pub fn step_fn(&mut self, v_of: &dyn Fn(f64) -> f64) {
+        let h = self.h;
         for j in 0..self.substeps {
-            self.rk4_fn(v_of, j as f64 * self.h);
+            self.rk4_fn(v_of, j as f64 * h, h);
         }
     }
 
-    /// Tachometer voltage now, V.
+    /// Tachometer voltage now (with the tachometer gain error), V.
     pub fn tach(&self) -> f64 {
         self.kts * self.s[2]
+    }
+
+    /// Armature current now, A.
+    pub fn current(&self) -> f64 {
+        self.s[0]
+    }
+
+    /// Motor speed now, rad/s.
+    pub fn motor_speed(&self) -> f64 {
+        self.s[2]
     }
 
     /// Load angle now, rad.
     pub fn load_angle(&self) -> f64 {
         self.s[3]
+    }
+
+    /// Load speed now, rad/s.
+    pub fn load_speed(&self) -> f64 {
+        self.s[4]
     }
 
     /// Tachometer record for a voltage record: element k is sampled at t_k, before
@@ -217,6 +339,21 @@ impl Reference {
             out.push(self.tach());
         }
         out
+    }
+
+    /// Tachometer (V) and load angle (rad) records for a voltage record, in the convention of
+    /// [`Reference::run_tach`] (`volts.len() + 1` rows each).
+    pub fn run_tach_and_angle(&mut self, volts: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let mut tach = Vec::with_capacity(volts.len() + 1);
+        let mut angle = Vec::with_capacity(volts.len() + 1);
+        tach.push(self.tach());
+        angle.push(self.load_angle());
+        for &v in volts {
+            self.step(v);
+            tach.push(self.tach());
+            angle.push(self.load_angle());
+        }
+        (tach, angle)
     }
 }
 
@@ -279,4 +416,110 @@ fn solve3(mut m: [[f64; 3]; 3], mut r: [f64; 3]) -> [f64; 3] {
         x[c] = acc / m[c][c];
     }
     x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use geared_servo::REFERENCE;
+
+    /// A 10 V step held for `n` samples, then 0 V.
+    fn pulse(n: usize, off: usize) -> Vec<f64> {
+        (0..n).map(|k| if k < off { 10.0 } else { 0.0 }).collect()
+    }
+
+    #[test]
+    fn a_whole_step_delay_shifts_the_record_exactly() {
+        let p0 = REFERENCE.with_backlash_deg(0.05);
+        let v = pulse(400, 200);
+        let y0 = Reference::new(&p0, 2e-6).unwrap().run_tach(&v);
+        for m in [1usize, 3] {
+            let mut p = p0;
+            p.effects.input_delay = m as f64 * p0.sample_period_s;
+            let y = Reference::new(&p, 2e-6).unwrap().run_tach(&v);
+            assert!(y.iter().take(m + 1).all(|&x| x == 0.0));
+            for k in 0..y0.len() - m {
+                assert_eq!(y[k + m], y0[k], "delay {m}, row {k}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_fractional_delay_arrives_that_much_later() {
+        // Frictionless and without backlash, so the current answers the moment the voltage
+        // arrives: 1.5 periods of delay, the current is still 0 at t_1 and not at t_2.
+        let mut p = REFERENCE.without_friction();
+        let h = p.sample_period_s;
+        p.effects.input_delay = 1.5 * h;
+        let mut r = Reference::new(&p, 1e-6).unwrap();
+        r.step(10.0);
+        assert_eq!(r.current(), 0.0);
+        r.step(10.0);
+        assert!(r.current() > 0.01, "{}", r.current());
+        // And it is the same as a reference at a quarter of the period with a whole delay of
+        // six quarter periods (each command held for four).
+        let v = pulse(200, 60);
+        let fine_v: Vec<f64> = v.iter().flat_map(|&x| [x; 4]).collect();
+        let mut q = p;
+        q.sample_period_s = h / 4.0;
+        let y = Reference::new(&p, 1e-6).unwrap().run_tach(&v);
+        let yq = Reference::new(&q, 1e-6).unwrap().run_tach(&fine_v);
+        for (k, a) in y.iter().enumerate() {
+            let b = yq[4 * k];
+            assert!(
+                (a - b).abs() <= 1e-9 * (1.0 + b.abs()),
+                "row {k}: {a} vs {b}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_voltage_limit_applies_after_the_delay() {
+        let mut p = REFERENCE.without_friction();
+        p.effects.voltage_limit = 5.0;
+        let mut pd = p;
+        pd.effects.input_delay = 2.0 * p.sample_period_s;
+        let v = pulse(300, 100);
+        let y = Reference::new(&p, 2e-6).unwrap().run_tach(&v);
+        let yd = Reference::new(&pd, 2e-6).unwrap().run_tach(&v);
+        for k in 0..y.len() - 2 {
+            assert!((yd[k + 2] - y[k]).abs() <= 1e-12, "row {k}");
+        }
+    }
+
+    #[test]
+    fn a_stiff_second_mode_adds_its_inertia_to_the_load() {
+        // Mode at about 1.6 kHz, well damped: below it, the extra inertia moves with the load.
+        let p = REFERENCE.with_backlash_deg(0.05);
+        let j2 = 0.2 * p.load.inertia_kg_m2;
+        let k2 = j2 * (2.0 * std::f64::consts::PI * 1600.0f64).powi(2);
+        let c2 = 2.0 * 0.5 * (k2 * j2).sqrt();
+        let mut whole = p;
+        whole.load.inertia_kg_m2 += j2;
+        let v: Vec<f64> = (0..1000)
+            .map(|k| if (k / 100) % 2 == 0 { 8.0 } else { -8.0 })
+            .collect();
+        let a = Reference::new(&p, 1e-6)
+            .unwrap()
+            .with_second_mode(j2, k2, c2)
+            .run_tach(&v);
+        let b = Reference::new(&whole, 1e-6).unwrap().run_tach(&v);
+        let c = Reference::new(&p, 1e-6).unwrap().run_tach(&v);
+        let e = relative_rms_error(&a, &b);
+        let without = relative_rms_error(&c, &b);
+        assert!(e < 0.02, "{e}");
+        assert!(without > 5.0 * e, "{without} vs {e}");
+    }
+
+    #[test]
+    fn no_second_mode_changes_nothing() {
+        let p = REFERENCE.with_backlash_deg(0.05);
+        let v = pulse(300, 150);
+        let a = Reference::new(&p, 2e-6).unwrap().run_tach(&v);
+        let b = Reference::new(&p, 2e-6)
+            .unwrap()
+            .with_second_mode(0.0, 100.0, 1.0)
+            .run_tach(&v);
+        assert_eq!(a, b);
+    }
 }

@@ -1,0 +1,709 @@
+//! The generalisation suite of `diagnose` (issue 12): records of a "true" actuator made by the
+//! independent reference integrator ([`crate::reference`]), never by the emulator or `synth`,
+//! so that the model that fits is not the model that made the data (no inverse crime).
+//!
+//! It emulates a bench: the file given to `diagnose` is the data sheet ([`file_params`]:
+//! [`REFERENCE`] with 0.04° of backlash); the unit on the bench differs from it as real units
+//! do ([`true_unit`]: every parameter perturbed, the armature resistance a few percent high,
+//! slightly more backlash and a little mesh damping the file does not declare). On top of that
+//! unit each [`Kind`] hides nothing, one effect, a pair of effects, or a structural mode that
+//! no effect of the library represents ([`SecondMode`]). The records are the paper's bench
+//! procedure (a 10 V stepped sine, [`SteppedSine`]) for estimation and a square wave plus a
+//! multisine for validation ([`validation_volts`]), both sampled at 2 kHz with tachometer noise.
+//!
+//! Everything is seeded by the draw number: the same `(kind, draw)` gives the same case, bit
+//! for bit, on any machine and thread count.
+
+use crate::reference::{relative_rms_error, rms, Reference};
+use geared_servo::{ActuatorParams, Effect, Stiffness, REFERENCE};
+use geared_servo_host::calibrate::{self, Data};
+use geared_servo_host::record::Record;
+use geared_servo_host::HostError;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use rayon::prelude::*;
+use std::f64::consts::PI;
+
+/// Sample period of every record, s (2 kHz).
+pub const SAMPLE_PERIOD_S: f64 = 0.0005;
+
+/// RK4 step of the reference when it makes the records, s (250 steps per sample). Against
+/// 1 µs it changes the records far less than the noise outside rattle spans (see
+/// [`fine_step_check`]; the measured numbers are in the `diagnose_foreign` test's output).
+pub const FINE_STEP_S: f64 = 2e-6;
+
+/// Backlash the data sheet gives, degrees (the unit has 0.045–0.06°).
+pub const FILE_BACKLASH_DEG: f64 = 0.04;
+
+/// Tachometer noise, relative to the RMS of the clean tachometer record (Gaussian, white).
+pub const NOISE_REL: f64 = 0.02;
+
+/// Noise of the load encoder, degrees (Gaussian, white), on records that carry the load angle.
+pub const ANGLE_NOISE_DEG: f64 = 0.002;
+
+/// Draws of the standard suite ([`suite`]).
+pub const SUITE_DRAWS: std::ops::Range<u64> = 0..3;
+
+/// What a case hides from the file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// Only the unit-to-unit differences of [`true_unit`]: nothing to name.
+    Clean,
+    /// One effect of the library, at a material value.
+    Single(Effect),
+    /// Two effects at once: `load_viscous` and `input_delay`.
+    Pair,
+    /// A second structural mode (a fin mode), which no effect of the library represents.
+    OutOfLibrary,
+}
+
+/// The effects of [`Kind::Pair`].
+pub const PAIR: [Effect; 2] = [Effect::LoadViscous, Effect::InputDelay];
+
+impl Kind {
+    /// Every kind, in the order the suite lists them (10: clean, the seven effects, the pair,
+    /// the out-of-library mode).
+    pub fn all() -> Vec<Kind> {
+        let mut v = vec![Kind::Clean];
+        v.extend(Effect::ALL.iter().map(|&e| Kind::Single(e)));
+        v.push(Kind::Pair);
+        v.push(Kind::OutOfLibrary);
+        v
+    }
+
+    /// Short name: `clean`, the effect's name, `pair`, `second_mode`.
+    pub fn name(&self) -> String {
+        match self {
+            Kind::Clean => "clean".into(),
+            Kind::Single(e) => e.name().into(),
+            Kind::Pair => "pair".into(),
+            Kind::OutOfLibrary => "second_mode".into(),
+        }
+    }
+
+    /// The kind named `name` ([`Kind::name`]).
+    pub fn from_name(name: &str) -> Option<Kind> {
+        Kind::all().into_iter().find(|k| k.name() == name)
+    }
+
+    /// Index in [`Kind::all`] (a seed stream).
+    fn index(&self) -> u64 {
+        Kind::all().iter().position(|k| k == self).unwrap_or(0) as u64
+    }
+}
+
+/// A structural mode outside the library's model: an inertia on a torsional spring and
+/// damper from the load (see [`Reference::with_second_mode`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SecondMode {
+    /// Inertia J2, kg·m² (part of the load's total inertia).
+    pub inertia_kg_m2: f64,
+    /// Spring between the load and J2, N·m/rad.
+    pub stiffness_nm_per_rad: f64,
+    /// Damper between the load and J2, N·m·s/rad.
+    pub damping_nm_s_per_rad: f64,
+    /// Its natural frequency on a held load √(k2/J2)/2π, Hz.
+    pub frequency_hz: f64,
+    /// Its damping ratio on a held load, dimensionless.
+    pub damping_ratio: f64,
+}
+
+/// The stepped sine of the estimation record (the paper's bench procedure): bursts of a sine
+/// at log-spaced frequencies, each with raised-cosine ends, separated by rests at 0 V.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SteppedSine {
+    /// Amplitude, V.
+    pub amplitude_v: f64,
+    /// Number of bursts.
+    pub bursts: usize,
+    /// Frequency of the first burst, Hz.
+    pub f_lo_hz: f64,
+    /// Frequency of the last burst, Hz.
+    pub f_hi_hz: f64,
+    /// Length of a burst, s.
+    pub burst_s: f64,
+    /// Length of each raised-cosine end of a burst, s.
+    pub taper_s: f64,
+    /// Rest at 0 V after each burst, s.
+    pub rest_s: f64,
+}
+
+impl Default for SteppedSine {
+    /// 10 V, 22 bursts of 0.3 s from 10 to 300 Hz, 20 ms tapers, 0.1 s rests (8.8 s).
+    fn default() -> Self {
+        SteppedSine {
+            amplitude_v: 10.0,
+            bursts: 22,
+            f_lo_hz: 10.0,
+            f_hi_hz: 300.0,
+            burst_s: 0.3,
+            taper_s: 0.02,
+            rest_s: 0.1,
+        }
+    }
+}
+
+impl SteppedSine {
+    /// The default procedure with as many bursts as fit in `seconds` (at least 2).
+    pub fn lasting(seconds: f64) -> SteppedSine {
+        let d = SteppedSine::default();
+        let bursts = (seconds / (d.burst_s + d.rest_s)).round().max(2.0) as usize;
+        SteppedSine { bursts, ..d }
+    }
+
+    /// Frequency of burst `i`, Hz.
+    pub fn frequency_hz(&self, i: usize) -> f64 {
+        if self.bursts < 2 {
+            return self.f_lo_hz;
+        }
+        self.f_lo_hz * (self.f_hi_hz / self.f_lo_hz).powf(i as f64 / (self.bursts - 1) as f64)
+    }
+
+    /// Samples of one burst plus its rest.
+    pub fn period_samples(&self, h: f64) -> (usize, usize) {
+        (
+            (self.burst_s / h).round() as usize,
+            (self.rest_s / h).round() as usize,
+        )
+    }
+
+    /// The commanded voltages, V, one per sample of `h` s.
+    pub fn volts(&self, h: f64) -> Vec<f64> {
+        let (nb, nr) = self.period_samples(h);
+        let mut v = Vec::with_capacity(self.bursts * (nb + nr));
+        for i in 0..self.bursts {
+            let w = 2.0 * PI * self.frequency_hz(i);
+            for k in 0..nb {
+                let t = k as f64 * h;
+                let edge = t.min(self.burst_s - t);
+                let taper = if edge < self.taper_s {
+                    0.5 * (1.0 - (PI * edge.max(0.0) / self.taper_s).cos())
+                } else {
+                    1.0
+                };
+                v.push(self.amplitude_v * taper * (w * t).sin());
+            }
+            v.extend(std::iter::repeat_n(0.0, nr));
+        }
+        v
+    }
+}
+
+/// The validation record's command: a 9 V square wave at 4 Hz (starting positive) plus a
+/// random-phase multisine of 24 log-spaced tones from 5 to 300 Hz scaled to a 2 V peak, for
+/// 3 s at `h` s per sample; `seed` draws the phases.
+pub fn validation_volts(seed: u64, h: f64) -> Vec<f64> {
+    let n = (3.0 / h).round() as usize;
+    let tones = 24;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let comps: Vec<(f64, f64)> = (0..tones)
+        .map(|i| {
+            let f = 5.0 * (300.0f64 / 5.0).powf(i as f64 / (tones - 1) as f64);
+            (2.0 * PI * f, rng.gen_range(0.0..2.0 * PI))
+        })
+        .collect();
+    let ms: Vec<f64> = (0..n)
+        .map(|k| {
+            let t = k as f64 * h;
+            comps.iter().map(|(w, ph)| (w * t + ph).sin()).sum()
+        })
+        .collect();
+    let peak = ms.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1e-12);
+    ms.iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let sq = if (k as f64 * h * 4.0).fract() < 0.5 {
+                9.0
+            } else {
+                -9.0
+            };
+            sq + 2.0 * m / peak
+        })
+        .collect()
+}
+
+/// The parameter file given to `diagnose`: the data sheet, [`REFERENCE`] with
+/// [`FILE_BACKLASH_DEG`] of backlash.
+pub fn file_params() -> ActuatorParams {
+    REFERENCE.with_backlash_deg(FILE_BACKLASH_DEG)
+}
+
+/// A seeded generator: one stream per purpose, so that adding a draw of one does not move
+/// another.
+fn rng(draw: u64, stream: u64) -> ChaCha8Rng {
+    let mut r = ChaCha8Rng::seed_from_u64(0x5eed_0000 + draw);
+    r.set_stream(stream);
+    r
+}
+
+/// A factor 1 ± U(lo, hi) with a random sign.
+fn off_by(r: &mut ChaCha8Rng, lo: f64, hi: f64) -> f64 {
+    let m = r.gen_range(lo..hi);
+    if r.gen_bool(0.5) {
+        1.0 + m
+    } else {
+        1.0 - m
+    }
+}
+
+/// The unit on the bench for `draw`, without any hidden effect: the file's parameters as real
+/// units differ from a data sheet. Motor and load inertia and both stage stiffnesses k1, k2
+/// (measured form) ±8–25 %, motor and load Coulomb friction ±15–30 %, armature resistance
+/// +3–10 % (the file keeps the data-sheet value), inductance ±10 %, k_t, k_b and k_ts ±1 % at
+/// most, backlash 0.045–0.06°, and mesh damping 0.002–0.005 N·m·s/rad (light: the gears still
+/// rattle in places). The gear ratios are exact. Same draw, same unit for every kind.
+pub fn true_unit(draw: u64) -> Result<ActuatorParams, HostError> {
+    let mut p = calibrate::with_measured_stiffness(&file_params())?;
+    let mut r = rng(draw, 0);
+    p.motor.inertia_kg_m2 *= off_by(&mut r, 0.08, 0.25);
+    p.load.inertia_kg_m2 *= off_by(&mut r, 0.08, 0.25);
+    if let Stiffness::Measured {
+        k1_nm_per_rad,
+        k2_nm_per_rad,
+    } = &mut p.gears.stiffness
+    {
+        *k1_nm_per_rad *= off_by(&mut r, 0.08, 0.25);
+        *k2_nm_per_rad *= off_by(&mut r, 0.08, 0.25);
+    }
+    p.motor.coulomb_friction_nm *= off_by(&mut r, 0.15, 0.30);
+    p.load.coulomb_friction_nm *= off_by(&mut r, 0.15, 0.30);
+    p.motor.resistance_ohm *= 1.0 + r.gen_range(0.03..0.10);
+    p.motor.inductance_h *= 1.0 + r.gen_range(-0.10..0.10);
+    p.motor.torque_constant_nm_per_a *= 1.0 + r.gen_range(-0.01..0.01);
+    p.motor.back_emf_v_s_per_rad *= 1.0 + r.gen_range(-0.01..0.01);
+    p.motor.tach_v_s_per_rad *= 1.0 + r.gen_range(-0.01..0.01);
+    p.backlash_deg = r.gen_range(0.045..0.06);
+    p.effects.mesh_damping = r.gen_range(0.002..0.005);
+    p.derived()?;
+    Ok(p)
+}
+
+/// A material but physically plausible value of `e` for `draw`, in its unit: motor_viscous
+/// 4–8e-6, load_viscous 0.01–0.03, mesh_damping 0.05–0.12, hinge_stiffness 5–15, input_delay
+/// 0.6–1.2 ms, voltage_limit 6.5–8 V, tach_gain ±(0.06–0.12).
+pub fn effect_value(e: Effect, draw: u64) -> f64 {
+    let mut r = rng(
+        draw,
+        100 + Effect::ALL.iter().position(|&x| x == e).unwrap_or(0) as u64,
+    );
+    match e {
+        Effect::MotorViscous => r.gen_range(4e-6..8e-6),
+        Effect::LoadViscous => r.gen_range(0.01..0.03),
+        Effect::MeshDamping => r.gen_range(0.05..0.12),
+        Effect::HingeStiffness => r.gen_range(5.0..15.0),
+        Effect::InputDelay => r.gen_range(0.6e-3..1.2e-3),
+        Effect::VoltageLimit => r.gen_range(6.5..8.0),
+        Effect::TachGain => off_by(&mut r, 0.06, 0.12) - 1.0,
+    }
+}
+
+/// The second mode of [`Kind::OutOfLibrary`] for `draw` on a unit whose total load inertia
+/// is `load_inertia` (kg·m²): J2 is 0.2 of it, at 150–250 Hz on a held load, with a damping
+/// ratio of 0.02–0.04.
+pub fn second_mode_of(draw: u64, load_inertia: f64) -> SecondMode {
+    let mut r = rng(draw, 200);
+    let j2 = 0.2 * load_inertia;
+    let f = r.gen_range(150.0..250.0);
+    let zeta = r.gen_range(0.02..0.04);
+    let k2 = j2 * (2.0 * PI * f).powi(2);
+    SecondMode {
+        inertia_kg_m2: j2,
+        stiffness_nm_per_rad: k2,
+        damping_nm_s_per_rad: 2.0 * zeta * (k2 * j2).sqrt(),
+        frequency_hz: f,
+        damping_ratio: zeta,
+    }
+}
+
+/// Whether a fitted value of `e` comes out multiplied by the resistance scale s = R_true /
+/// R_file: with the file's R every mechanical torque is fitted s times too large (the
+/// current is), so inertias, friction, stiffness and the viscous, mesh and hinge effects
+/// scale; the delay, the voltage limit and the tachometer gain do not.
+pub fn scales_with_resistance(e: Effect) -> bool {
+    !matches!(
+        e,
+        Effect::InputDelay | Effect::VoltageLimit | Effect::TachGain
+    )
+}
+
+/// One case of the suite.
+#[derive(Clone, Debug)]
+pub struct ForeignCase {
+    /// What it hides.
+    pub kind: Kind,
+    /// Draw number (the seed).
+    pub draw: u64,
+    /// The parameter file given to `diagnose` ([`file_params`]).
+    pub file: ActuatorParams,
+    /// The true unit in the model's form (measured stiffness, hidden effects set). With a
+    /// second mode: the rigid equivalent, whose load inertia is the total (hub plus J2).
+    pub truth: ActuatorParams,
+    /// The second mode, for [`Kind::OutOfLibrary`].
+    pub second_mode: Option<SecondMode>,
+    /// Hidden effects and their true values, in their units (empty for clean and
+    /// out-of-library cases).
+    pub expected: Vec<(Effect, f64)>,
+    /// Whether the truth is outside the library (the right verdict is "unexplained").
+    pub out_of_library: bool,
+    /// Resistance scale s = R_true / R_file, dimensionless.
+    pub resistance_scale: f64,
+    /// The estimation record (stepped sine), as measured.
+    pub estimation_record: Record,
+    /// The validation record (square wave plus multisine), as measured.
+    pub validation_record: Record,
+    /// The estimation record prepared for fitting.
+    pub estimation: Data,
+    /// The validation record prepared for fitting.
+    pub validation: Data,
+    /// NRMSE of the tachometer noise alone on the estimation record (the floor).
+    pub estimation_floor: f64,
+    /// The same on the validation record.
+    pub validation_floor: f64,
+    /// NRMSE of the emulator run with [`ForeignCase::truth`] on the estimation record.
+    pub true_nrmse_estimation: f64,
+    /// The same on the validation record.
+    pub true_nrmse_validation: f64,
+    /// The same burst by burst on the estimation record (rattle spans show up here).
+    pub true_fit_by_burst: Vec<BurstFit>,
+}
+
+/// How well the true parameters (emulator) follow one burst of the estimation record.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BurstFit {
+    /// Burst frequency, Hz.
+    pub f_hz: f64,
+    /// NRMSE over the burst and its rest, normalised by that span's own data.
+    pub nrmse: f64,
+    /// Share of the whole record's true-parameter residual energy in this span.
+    pub residual_share: f64,
+    /// NRMSE of the noise alone over the span, normalised the same way.
+    pub floor: f64,
+}
+
+/// Rattle spans of a case: bursts where the true parameters miss by more than a threshold.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rattle {
+    /// Their frequencies, Hz.
+    pub bursts_hz: Vec<f64>,
+    /// Their share of the true-parameter residual energy.
+    pub residual_share: f64,
+    /// True-parameter NRMSE of the rest of the record (normalised like the whole record's:
+    /// the residual outside those bursts over the whole record's norm).
+    pub nrmse_outside: f64,
+}
+
+impl ForeignCase {
+    /// What a calibration with the file's resistance should find for effect `e` of true
+    /// value `v`: `v · s` when it [`scales_with_resistance`], `v` otherwise.
+    pub fn expected_fitted(&self, e: Effect, v: f64) -> f64 {
+        if scales_with_resistance(e) {
+            v * self.resistance_scale
+        } else {
+            v
+        }
+    }
+
+    /// The bursts whose true-parameter NRMSE exceeds `floors` times their own noise floor
+    /// (e.g. 5): where the emulator cannot follow the reference sample by sample (chaotic
+    /// gear rattle, MODEL.md; or the second mode).
+    pub fn rattle(&self, floors: f64) -> Rattle {
+        let bad: Vec<&BurstFit> = self
+            .true_fit_by_burst
+            .iter()
+            .filter(|b| b.nrmse > floors * b.floor)
+            .collect();
+        let share: f64 = bad.iter().map(|b| b.residual_share).sum();
+        Rattle {
+            bursts_hz: bad.iter().map(|b| b.f_hz).collect(),
+            residual_share: share,
+            nrmse_outside: self.true_nrmse_estimation * (1.0 - share).max(0.0).sqrt(),
+        }
+    }
+
+    /// `kind/draw`, for reports.
+    pub fn label(&self) -> String {
+        format!("{}/{}", self.kind.name(), self.draw)
+    }
+}
+
+/// How long and how finely to make a case's records.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Making {
+    /// The estimation record's stepped sine.
+    pub stepped_sine: SteppedSine,
+    /// RK4 step of the reference, s.
+    pub fine_step_s: f64,
+}
+
+impl Default for Making {
+    fn default() -> Self {
+        Making {
+            stepped_sine: SteppedSine::default(),
+            fine_step_s: FINE_STEP_S,
+        }
+    }
+}
+
+/// The true unit of a case.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Truth {
+    /// Its parameters in the model's form, hidden effects set (with a second mode: the rigid
+    /// equivalent, whose load inertia is the total).
+    pub params: ActuatorParams,
+    /// The second mode, for [`Kind::OutOfLibrary`].
+    pub second_mode: Option<SecondMode>,
+    /// Hidden effects and their true values, in their units.
+    pub expected: Vec<(Effect, f64)>,
+}
+
+/// The true unit of `(kind, draw)`: [`true_unit`] with the kind's hidden effects or mode.
+pub fn truth(kind: Kind, draw: u64) -> Result<Truth, HostError> {
+    let mut params = true_unit(draw)?;
+    let mut expected = Vec::new();
+    let mut second_mode = None;
+    match kind {
+        Kind::Clean => {}
+        Kind::Single(e) => expected.push((e, effect_value(e, draw))),
+        Kind::Pair => expected.extend(PAIR.iter().map(|&e| (e, effect_value(e, draw)))),
+        Kind::OutOfLibrary => second_mode = Some(second_mode_of(draw, params.load.inertia_kg_m2)),
+    }
+    for &(e, v) in &expected {
+        params.effects.set(e, v);
+    }
+    params.derived()?;
+    Ok(Truth {
+        params,
+        second_mode,
+        expected,
+    })
+}
+
+/// Clean reference records of `p` (with `mode`) for `volts`: (tachometer V, load angle rad),
+/// one row per command, row k sampled at t_k before command k is applied.
+pub fn reference_run(
+    p: &ActuatorParams,
+    mode: Option<&SecondMode>,
+    volts: &[f64],
+    fine_step_s: f64,
+) -> Result<(Vec<f64>, Vec<f64>), HostError> {
+    let mut hub = *p;
+    let mut r = match mode {
+        Some(m) => {
+            hub.load.inertia_kg_m2 -= m.inertia_kg_m2;
+            Reference::new(&hub, fine_step_s)?.with_second_mode(
+                m.inertia_kg_m2,
+                m.stiffness_nm_per_rad,
+                m.damping_nm_s_per_rad,
+            )
+        }
+        None => Reference::new(&hub, fine_step_s)?,
+    };
+    let (mut tach, mut angle) = r.run_tach_and_angle(volts);
+    tach.truncate(volts.len());
+    angle.truncate(volts.len());
+    Ok((tach, angle))
+}
+
+/// A measured record of the unit: the clean run plus seeded noise; with `angle`, also the
+/// load angle column. Returns the record and the noise's Euclidean norm on the tachometer.
+fn measure(
+    name: &str,
+    volts: Vec<f64>,
+    clean: (Vec<f64>, Vec<f64>),
+    angle: bool,
+    mut noise: ChaCha8Rng,
+) -> Result<(Record, f64), HostError> {
+    let (tach, theta) = clean;
+    let sigma = NOISE_REL * rms(&tach);
+    let tach_noise = Normal::new(0.0, sigma).map_err(|e| HostError::other(e.to_string()))?;
+    let angle_noise =
+        Normal::new(0.0, ANGLE_NOISE_DEG).map_err(|e| HostError::other(e.to_string()))?;
+    let mut e2 = 0.0;
+    let tach_v: Vec<f64> = tach
+        .iter()
+        .map(|y| {
+            let e = tach_noise.sample(&mut noise);
+            e2 += e * e;
+            y + e
+        })
+        .collect();
+    let mut outputs = vec![("tach_voltage_v".to_string(), tach_v)];
+    if angle {
+        let deg: Vec<f64> = theta
+            .iter()
+            .map(|a| a.to_degrees() + angle_noise.sample(&mut noise))
+            .collect();
+        outputs.push(("load_angle_deg".to_string(), deg));
+    }
+    let rec = Record {
+        metadata: vec![(
+            "source".to_string(),
+            format!("host-tests foreign suite, reference integrator: {name}"),
+        )],
+        time_s: (0..volts.len())
+            .map(|k| k as f64 * SAMPLE_PERIOD_S)
+            .collect(),
+        sample_period_s: SAMPLE_PERIOD_S,
+        motor_voltage_v: volts,
+        outputs,
+        warnings: vec![],
+    };
+    Ok((rec, e2.sqrt()))
+}
+
+/// Builds case `(kind, draw)` with the standard records.
+pub fn case(kind: Kind, draw: u64) -> Result<ForeignCase, HostError> {
+    case_with(kind, draw, &Making::default())
+}
+
+/// Builds case `(kind, draw)` with records made as `making` says.
+pub fn case_with(kind: Kind, draw: u64, making: &Making) -> Result<ForeignCase, HostError> {
+    let file = file_params();
+    let Truth {
+        params: truth,
+        second_mode: mode,
+        expected,
+    } = truth(kind, draw)?;
+    let est_v = making.stepped_sine.volts(SAMPLE_PERIOD_S);
+    let val_v = validation_volts(1000 + draw, SAMPLE_PERIOD_S);
+    let (est_clean, val_clean) = rayon::join(
+        || reference_run(&truth, mode.as_ref(), &est_v, making.fine_step_s),
+        || reference_run(&truth, mode.as_ref(), &val_v, making.fine_step_s),
+    );
+    let label = format!("{}/{}", kind.name(), draw);
+    // Odd draws also carry the load encoder.
+    let angle = draw % 2 == 1;
+    let stream = 300 + 2 * kind.index();
+    let est_clean = est_clean?;
+    let est_clean_tach = est_clean.0.clone();
+    let (est_rec, est_noise) = measure(
+        &format!("{label} estimation"),
+        est_v,
+        est_clean,
+        angle,
+        rng(draw, stream),
+    )?;
+    let (val_rec, val_noise) = measure(
+        &format!("{label} validation"),
+        val_v,
+        val_clean?,
+        angle,
+        rng(draw, stream + 1),
+    )?;
+    let estimation = Data::from_record(&est_rec, &format!("{label} estimation"))?;
+    let validation = Data::from_record(&val_rec, &format!("{label} validation"))?;
+    let true_fit_by_burst = by_burst(&truth, &estimation, &est_clean_tach, &making.stepped_sine);
+    Ok(ForeignCase {
+        kind,
+        draw,
+        file,
+        resistance_scale: truth.motor.resistance_ohm / file.motor.resistance_ohm,
+        second_mode: mode,
+        out_of_library: kind == Kind::OutOfLibrary,
+        estimation_floor: est_noise / estimation.norm,
+        validation_floor: val_noise / validation.norm,
+        true_nrmse_estimation: calibrate::nrmse(&truth, &estimation),
+        true_nrmse_validation: calibrate::nrmse(&truth, &validation),
+        true_fit_by_burst,
+        truth,
+        expected,
+        estimation_record: est_rec,
+        validation_record: val_rec,
+        estimation,
+        validation,
+    })
+}
+
+/// The emulator with `p` against the data `d` burst by burst (`ss` made its command;
+/// `clean` is the data without noise).
+fn by_burst(p: &ActuatorParams, d: &Data, clean: &[f64], ss: &SteppedSine) -> Vec<BurstFit> {
+    let Some(t) = calibrate::simulate(p, d) else {
+        return Vec::new();
+    };
+    let e2: Vec<f64> = t.y.iter().zip(&d.y).map(|(a, b)| (a - b).powi(2)).collect();
+    let total: f64 = e2.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+    let (nb, nr) = ss.period_samples(d.sample_period_s);
+    let per = nb + nr;
+    (0..ss.bursts)
+        .filter_map(|i| {
+            let span = i * per..((i + 1) * per).min(d.y.len());
+            let y = d.y.get(span.clone())?;
+            let m = y.iter().sum::<f64>() / y.len().max(1) as f64;
+            let norm2: f64 = y.iter().map(|v| (v - m).powi(2)).sum();
+            let err2: f64 = e2.get(span.clone())?.iter().sum();
+            let noise2: f64 = y
+                .iter()
+                .zip(clean.get(span)?)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum();
+            let norm2 = norm2.max(f64::MIN_POSITIVE);
+            Some(BurstFit {
+                f_hz: ss.frequency_hz(i),
+                nrmse: (err2 / norm2).sqrt(),
+                residual_share: err2 / total,
+                floor: (noise2 / norm2).sqrt(),
+            })
+        })
+        .collect()
+}
+
+/// Every kind for every draw of `draws`, made in parallel, in the order kind-major within
+/// each draw (draw 0: clean, the seven effects, pair, second mode; then draw 1 …).
+pub fn cases(draws: std::ops::Range<u64>) -> Result<Vec<ForeignCase>, HostError> {
+    let jobs: Vec<(Kind, u64)> = draws
+        .flat_map(|d| Kind::all().into_iter().map(move |k| (k, d)))
+        .collect();
+    jobs.par_iter().map(|&(k, d)| case(k, d)).collect()
+}
+
+/// The standard suite: every kind for draws 0, 1 and 2 (30 cases).
+pub fn suite() -> Result<Vec<ForeignCase>, HostError> {
+    cases(SUITE_DRAWS)
+}
+
+/// How much the reference's step changes one burst of the estimation record.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BurstGap {
+    /// Burst frequency, Hz.
+    pub f_hz: f64,
+    /// Relative RMS difference over the burst and its rest of the record at [`FINE_STEP_S`]
+    /// against 1 µs.
+    pub coarse_vs_1us: f64,
+    /// The same for 0.5 µs against 1 µs: large where the motion is chaotic (a rattle span,
+    /// MODEL.md), where no step size converges sample by sample.
+    pub half_vs_1us: f64,
+}
+
+/// The clean estimation record of `(kind, draw)` at [`FINE_STEP_S`], 1 µs and 0.5 µs,
+/// compared burst by burst, and over the whole record: (bursts, whole-record gap at
+/// [`FINE_STEP_S`], whole-record gap at 0.5 µs), gaps relative to the 1 µs record.
+pub fn fine_step_check(kind: Kind, draw: u64) -> Result<(Vec<BurstGap>, f64, f64), HostError> {
+    let t = truth(kind, draw)?;
+    let (p, mode) = (t.params, t.second_mode);
+    let ss = SteppedSine::default();
+    let v = ss.volts(SAMPLE_PERIOD_S);
+    let steps = [FINE_STEP_S, 1e-6, 0.5e-6];
+    let runs: Vec<Vec<f64>> = steps
+        .par_iter()
+        .map(|&h| reference_run(&p, mode.as_ref(), &v, h).map(|r| r.0))
+        .collect::<Result<_, _>>()?;
+    let (nb, nr) = ss.period_samples(SAMPLE_PERIOD_S);
+    let per = nb + nr;
+    let bursts = (0..ss.bursts)
+        .map(|i| {
+            let span = i * per..(i + 1) * per;
+            let one = &runs[1][span.clone()];
+            BurstGap {
+                f_hz: ss.frequency_hz(i),
+                coarse_vs_1us: relative_rms_error(&runs[0][span.clone()], one),
+                half_vs_1us: relative_rms_error(&runs[2][span], one),
+            }
+        })
+        .collect();
+    Ok((
+        bursts,
+        relative_rms_error(&runs[0], &runs[1]),
+        relative_rms_error(&runs[2], &runs[1]),
+    ))
+}
