@@ -99,8 +99,10 @@ pub fn assess(p: &ActuatorParams, d: &Data) -> Predictability {
 /// Assesses `d` under `p`: runs the model and four perturbed copies over the record and marks
 /// the windows where the copies' RMS spread exceeds `threshold` times the RMS of the model's
 /// output there (against a floor of 2 % of the record's RMS, so that a quiet window is not
-/// judged by a ratio of two small numbers), widened by one window on each side. Everything
-/// is predictable when the model cannot be run.
+/// judged by a ratio of two small numbers). A span so started lasts until the model comes to
+/// rest or the copies have stayed together for three windows (copies that parted stay parted
+/// while the motion goes on, even where their spread happens to be small), and is widened by
+/// one window on each side. Everything is predictable when the model cannot be run.
 pub fn assess_with(p: &ActuatorParams, d: &Data, s: &Settings) -> Predictability {
     let n = d.y.len();
     let Some(center) = calibrate::simulate(p, d) else {
@@ -126,7 +128,9 @@ pub fn assess_with(p: &ActuatorParams, d: &Data, s: &Settings) -> Predictability
     let global_ms = center.y.iter().map(|v| v * v).sum::<f64>() / n as f64;
     let w = ((s.window_s / d.sample_period_s).round() as usize).max(4);
     let windows = n.div_ceil(w);
-    let bad: Vec<bool> = (0..windows)
+    // Per window: the spread's ratio to the signal (squared), and whether the model is
+    // quiet there (at rest: below 2 % of the record's RMS).
+    let stats: Vec<(f64, bool)> = (0..windows)
         .map(|j| {
             let lo = j * w;
             let hi = (lo + w).min(n);
@@ -140,10 +144,31 @@ pub fn assess_with(p: &ActuatorParams, d: &Data, s: &Settings) -> Predictability
                 .map(|v| v * v)
                 .sum::<f64>()
                 / len;
-            let scale = sig.max(0.02f64.powi(2) * global_ms);
-            sp > s.threshold.powi(2) * scale
+            let quiet_line = 0.02f64.powi(2) * global_ms;
+            (sp / sig.max(quiet_line), sig < quiet_line)
         })
         .collect();
+    // Trajectories that have parted stay parted until dissipation brings them together again:
+    // a span runs from the first window over the line until the model is quiet (a rest) or
+    // the spread has stayed under a quarter of the line for three windows.
+    let line = s.threshold.powi(2);
+    let mut bad = vec![false; windows];
+    let mut inside = false;
+    let mut calm = 0usize;
+    for (j, &(ratio, quiet)) in stats.iter().enumerate() {
+        if ratio > line {
+            inside = true;
+            calm = 0;
+        } else if inside {
+            calm = if ratio < line / 16.0 { calm + 1 } else { 0 };
+            if quiet || calm >= 3 {
+                inside = false;
+            }
+        }
+        if let Some(b) = bad.get_mut(j) {
+            *b = inside;
+        }
+    }
     // Widen by one window each side: a trajectory parts before the spread crosses the line.
     let widened: Vec<bool> = (0..windows)
         .map(|j| {
