@@ -1,6 +1,6 @@
 //! The noise floor of a record, estimated from the record alone.
 //!
-//! The third difference y[k+3] − 3 y[k+2] + 3 y[k+1] − y[k] of white noise of standard
+//! The third difference y\[k+3\] − 3 y\[k+2\] + 3 y\[k+1\] − y\[k\] of white noise of standard
 //! deviation σ has variance 20 σ², while that of a smooth signal is small (a sine of
 //! frequency f loses a factor (2 sin(π f h))³: 0.004 at 50 Hz and 2 kHz sampling). Over short
 //! windows of a record the mean square third difference is therefore noise wherever the
