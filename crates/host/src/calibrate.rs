@@ -11,6 +11,7 @@
 
 use crate::error::HostError;
 use crate::record::Record;
+use crate::residual::weighted_norm;
 use geared_servo::{ActuatorParams, Plant, PlantState};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
@@ -37,17 +38,6 @@ pub struct Data {
     pub weight: Vec<f64>,
     /// ‖√w (y − ȳ_w)‖₂ (ȳ_w the weighted mean), the NRMSE denominator.
     pub norm: f64,
-}
-
-/// Weighted mean and ‖√w (y − ȳ_w)‖₂ of `y`.
-fn weighted_norm(y: &[f64], w: &[f64]) -> (f64, f64) {
-    let sw: f64 = w.iter().sum();
-    if sw <= 0.0 {
-        return (0.0, 0.0);
-    }
-    let mean = y.iter().zip(w).map(|(a, b)| a * b).sum::<f64>() / sw;
-    let ss: f64 = y.iter().zip(w).map(|(a, b)| b * (a - mean).powi(2)).sum();
-    (mean, ss.sqrt())
 }
 
 /// Output columns the fit can use, in order of preference: every measured output

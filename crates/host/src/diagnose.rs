@@ -213,17 +213,18 @@ fn effective_samples(p: &ActuatorParams, data: &[Data]) -> f64 {
     (n * (1.0 - rho) / (1.0 + rho)).max(2.0)
 }
 
-/// Each record weighted by its predictability under `p` (or unweighted when switched off).
+/// `d` weighted by its predictability under `p` (unweighted when switched off).
+fn weigh_one(p: &ActuatorParams, d: &Data, on: bool) -> Data {
+    if on {
+        predictability::weigh(p, d).0
+    } else {
+        d.clone()
+    }
+}
+
+/// Each record weighted by its predictability under `p` ([`weigh_one`]).
 fn weigh(p: &ActuatorParams, data: &[Data], on: bool) -> Vec<Data> {
-    data.iter()
-        .map(|d| {
-            if on {
-                predictability::weigh(p, d).0
-            } else {
-                d.clone()
-            }
-        })
-        .collect()
+    data.iter().map(|d| weigh_one(p, d, on)).collect()
 }
 
 /// The floor cost (mean over records of the noise-only NRMSE²) of weighted records whose
@@ -500,15 +501,8 @@ pub fn diagnose(
     let mut last_scores = Vec::new();
     let mut rejected: Vec<Rejection> = Vec::new();
     // The validation record is weighted by its predictability under the current model.
-    let val_weighted = |p: &ActuatorParams| -> Option<Data> {
-        validation.map(|v| {
-            if opts.predictability {
-                predictability::weigh(p, v).0
-            } else {
-                v.clone()
-            }
-        })
-    };
+    let val_weighted =
+        |p: &ActuatorParams| validation.map(|v| weigh_one(p, v, opts.predictability));
     let material = |c: f64, data: &[Data]| -> bool {
         c > opts.material_ratio.powi(2) * floor_cost(data, &sigma)
     };

@@ -97,6 +97,18 @@ pub fn spectrum(x: &[f64], h: f64) -> (Vec<f64>, Vec<f64>) {
     (f, p)
 }
 
+/// Weighted mean ȳ_w and ‖√w (y − ȳ_w)‖₂ of `y` with weights `w` (the NRMSE denominator);
+/// (0, 0) when the weights sum to zero.
+pub fn weighted_norm(y: &[f64], w: &[f64]) -> (f64, f64) {
+    let sw: f64 = w.iter().sum();
+    if sw <= 0.0 {
+        return (0.0, 0.0);
+    }
+    let mean = y.iter().zip(w).map(|(a, b)| a * b).sum::<f64>() / sw;
+    let ss: f64 = y.iter().zip(w).map(|(a, b)| b * (a - mean).powi(2)).sum();
+    (mean, ss.sqrt())
+}
+
 /// Analyses the residual `y − model.y`; `u` is the input, `h` the sample period.
 pub fn analyse(y: &[f64], model: &Trace, u: &[f64], h: f64) -> Analysis {
     analyse_weighted(y, model, u, h, &[])
@@ -114,14 +126,8 @@ pub fn analyse_weighted(y: &[f64], model: &Trace, u: &[f64], h: f64, w: &[f64]) 
         .map(|(k, (a, b))| wk(k).sqrt() * (a - b))
         .collect();
     let n = e.len().max(1);
-    let sw: f64 = (0..y.len()).map(wk).sum::<f64>().max(f64::MIN_POSITIVE);
-    let mean = y.iter().enumerate().map(|(k, v)| wk(k) * v).sum::<f64>() / sw;
-    let norm = y
-        .iter()
-        .enumerate()
-        .map(|(k, v)| wk(k) * (v - mean).powi(2))
-        .sum::<f64>()
-        .sqrt();
+    let weights: Vec<f64> = (0..y.len()).map(wk).collect();
+    let (_, norm) = weighted_norm(y, &weights);
     let enorm = e.iter().map(|v| v * v).sum::<f64>().sqrt();
     let nrmse = if norm > 0.0 {
         enorm / norm
