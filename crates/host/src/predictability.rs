@@ -1,13 +1,23 @@
 //! Predictability: where the model itself says that it cannot be followed sample by sample.
 //!
 //! With backlash and little damping some regimes are chaotic (gear rattle, MODEL.md): two
-//! copies of the same actuator whose parameters differ by a fraction of a percent part within
+//! copies of the same actuator whose parameters differ by a hundredth of a percent part within
 //! a fraction of a second, and no calibration can make a model follow a real rig there. The
-//! model says so itself: an ensemble of copies, each with the calibrated parameters moved by
-//! about their uncertainty, stays together where the motion is predictable (the spread is a
-//! few percent, proportional to the perturbation) and parts where it is not (the spread is of
-//! the order of the signal). Rows inside such spans are weighted out of fits and decisions,
-//! their share is reported, and they are compared by statistics instead (RMS level).
+//! model says so itself: an ensemble of copies, each with the parameters moved by a tiny
+//! amount (10⁻⁴ of the inertias and stiffness, 5·10⁻⁴ of the frictions and backlash), stays
+//! together where the motion is predictable (the spread is proportional to the perturbation:
+//! below 10⁻³ of the signal even at a lightly damped resonance, whose sensitivity to a
+//! parameter is some tens) and parts where it is not (the spread grows exponentially to the
+//! size of the signal). The perturbation is kept tiny on purpose: a larger one (1 %) also
+//! marks the resonance bursts, where the motion is predictable but sensitive, and weights out
+//! the very rows that tell inertia from stiffness. Rows inside unpredictable spans are
+//! weighted out of fits and decisions, their share is reported, and they are compared by
+//! statistics instead (RMS level).
+//!
+//! Measured on the foreign suite's clean units (`host-tests/examples/rattle_probe.rs`): at
+//! the true parameters the predictable rows of the emulator follow the independent
+//! reference to the noise floor (NRMSE 0.94–1.06 × floor on all three draws, against
+//! 1.01–3.55 × with the former 1 %/5 % ensemble and a 15 % line).
 
 use crate::calibrate::{self, Data, Param};
 use geared_servo::ActuatorParams;
@@ -30,10 +40,10 @@ pub struct Settings {
 impl Default for Settings {
     fn default() -> Self {
         Settings {
-            inertia_perturbation: 0.01,
-            friction_perturbation: 0.05,
+            inertia_perturbation: 1e-4,
+            friction_perturbation: 5e-4,
             window_s: 0.025,
-            threshold: 0.15,
+            threshold: 0.02,
         }
     }
 }
