@@ -364,26 +364,16 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
             of.len()
         );
     }
-    let wrong: Vec<&str> = rows
-        .iter()
-        .filter(|r| !r.right)
-        .map(|r| r.label.as_str())
-        .collect();
-    let bad_values: Vec<&str> = rows
-        .iter()
-        .filter(|r| !r.values_ok)
-        .map(|r| r.label.as_str())
-        .collect();
-    let bad_nrmse: Vec<&str> = rows
-        .iter()
-        .filter(|r| !r.nrmse_ok)
-        .map(|r| r.label.as_str())
-        .collect();
-    let clean_steps: Vec<&str> = rows
-        .iter()
-        .filter(|r| r.steps_on_clean)
-        .map(|r| r.label.as_str())
-        .collect();
+    let labels = |pick: fn(&Row) -> bool| -> Vec<&str> {
+        rows.iter()
+            .filter(|r| pick(r))
+            .map(|r| r.label.as_str())
+            .collect()
+    };
+    let wrong = labels(|r| !r.right);
+    let bad_values = labels(|r| !r.values_ok);
+    let bad_nrmse = labels(|r| !r.nrmse_ok);
+    let clean_steps = labels(|r| r.steps_on_clean);
     let errors: Vec<String> = rows
         .iter()
         .filter_map(|r| r.error.as_ref().map(|e| format!("{}: {e}", r.label)))
