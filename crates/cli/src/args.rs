@@ -147,29 +147,11 @@ pub struct MeasureArgs {
 impl MeasureArgs {
     /// The sweep options for amplitude `vpk` (V).
     pub fn options(&self, vpk: f64) -> Result<SweepOptions, HostError> {
-        if !(vpk.is_finite() && vpk > 0.0) {
-            return Err(HostError::input(format!(
-                "--vpk must be a positive number of volts, got {vpk}"
-            )));
-        }
-        if !(self.max_time_s.is_finite() && self.max_time_s > 0.0) {
-            return Err(HostError::input(format!(
-                "--max-time-s must be positive, got {}",
-                self.max_time_s
-            )));
-        }
-        Ok(SweepOptions {
-            vpk,
-            hold: match self.hold {
-                HoldArg::Continuous => Hold::Continuous,
-                HoldArg::Zoh => Hold::Zoh,
-            },
-            settings: geared_servo::analyser::SweepSettings {
-                max_time_s: self.max_time_s,
-                ..geared_servo::analyser::SweepSettings::DEFAULT
-            },
-            warm_start: !self.cold_start,
-        })
+        let hold = match self.hold {
+            HoldArg::Continuous => Hold::Continuous,
+            HoldArg::Zoh => Hold::Zoh,
+        };
+        geared_servo_host::fr_report::sweep_options(vpk, hold, self.max_time_s, self.cold_start)
     }
 }
 

@@ -26,14 +26,11 @@ pub fn load_params(
         .as_ref()
         .map(|p| p.display().to_string())
         .unwrap_or_else(|| params_file::REFERENCE_NAME.to_string());
-    let mut p = params_file::load(cli.params.as_deref())?;
-    if let Some(b) = backlash_deg {
-        p.backlash_deg = b;
-        params_file::validate(&p, "--backlash-deg").map_err(|e| {
-            HostError::input(e.message.replace("key `backlash.total_deg`", "value"))
-        })?;
+    let p = params_file::load(cli.params.as_deref())?;
+    match backlash_deg {
+        Some(b) => Ok((params_file::with_backlash(&p, b)?, name)),
+        None => Ok((p, name)),
     }
-    Ok((p, name))
 }
 
 /// Reads the record at `path` (with at least one output column when `require_output`),
