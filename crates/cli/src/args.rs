@@ -116,6 +116,17 @@ pub enum Command {
     Synth(SynthArgs),
     /// Calibrate, analyse the residual, trace it to a missing effect, report before/after.
     Diagnose(DiagnoseArgs),
+    /// FMI 2.0 co-simulation FMU (Linux x86-64) of the parameter file: input motor voltage,
+    /// the outputs of `simulate`, every key of the file as a parameter.
+    Fmu {
+        /// Output archive.
+        #[arg(long, value_name = "OUT.fmu")]
+        out: PathBuf,
+        /// The FMU library (default: libgeared_servo_fmu.so beside this executable, built by
+        /// `cargo build --release -p geared-servo-fmu`).
+        #[arg(long, value_name = "LIB.so")]
+        library: Option<PathBuf>,
+    },
 }
 
 /// How the sine reaches the winding (`--hold`).
