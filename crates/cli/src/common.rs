@@ -45,11 +45,6 @@ pub fn read_record(
     for w in &rec.warnings {
         eprintln!("warning: {w}");
     }
-    let mut p = *params;
-    p.sample_period_s = rec.sample_period_s;
-    params_file::validate(
-        &p,
-        &format!("{} (sample period of the record)", path.display()),
-    )?;
+    params_file::validate_for_record(params, rec.sample_period_s, &path.display().to_string())?;
     Ok(rec)
 }
