@@ -1,5 +1,5 @@
 //! One FMU instance in safe Rust: its parameters, the plant, its state and the FMI 2.0
-//! co-simulation state machine. The C functions of [`crate::ffi`] only translate to and from
+//! co-simulation state machine. The C functions of `src/ffi.rs` only translate to and from
 //! these calls; every error is a message for the importer's logger.
 
 use geared_servo::{Plant, PlantState};

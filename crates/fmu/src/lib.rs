@@ -11,7 +11,7 @@
 //! Parameters are validated at `fmi2ExitInitializationMode` with the parameter file's
 //! messages; a bad one is `fmi2Error` and a message to the importer's logger, never a crash.
 //!
-//! The C ABI ([`ffi`], private) is the only module allowed `unsafe`; the instance it drives
+//! The C ABI (`src/ffi.rs`, private) is the only module allowed `unsafe`; the instance it drives
 //! ([`instance`]) is safe Rust.
 
 pub mod instance;

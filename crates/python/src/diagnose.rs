@@ -32,6 +32,9 @@ pub struct Diagnosis {
     /// The output fitted (`tach_voltage_v`, ...), of the first record.
     #[pyo3(get)]
     output: String,
+    /// The unit of `output` (`"V"`, `"rad/s"`, ...).
+    #[pyo3(get)]
+    output_unit: &'static str,
     /// Time of each row of the first record from its start, s.
     #[pyo3(get)]
     time_s: Py<PyArray1<f64>>,
@@ -112,8 +115,7 @@ pub fn diagnose<'py>(
             .collect::<PyResult<_>>()?;
     }
     if let Some(f) = &fit {
-        fittable(&p, f)
-            .map_err(|e| InputError::new_err(format!("--fit: {}", e.message)))?;
+        fittable(&p, f).map_err(|e| InputError::new_err(format!("--fit: {}", e.message)))?;
         opts.fit = Some(f.clone());
     }
     let first = data
@@ -133,8 +135,8 @@ pub fn diagnose<'py>(
         Ok((out, json, before, after))
     })?;
     let calibrated = out.calibrated(&p);
-    let toml = params_file::to_toml(&calibrated, &out.calibrated_header(&name, &names))
-        .map_err(py_err)?;
+    let toml =
+        params_file::to_toml(&calibrated, &out.calibrated_header(&name, &names)).map_err(py_err)?;
     let h = first.sample_period_s;
     let time_s: Vec<f64> = (0..first.y.len()).map(|k| k as f64 * h).collect();
     Ok(Diagnosis {
@@ -148,6 +150,7 @@ pub fn diagnose<'py>(
         )?,
         summary: out.summary(),
         output: first.output.clone(),
+        output_unit: geared_servo_host::param_list::unit_of(&first.output).unwrap_or("-"),
         time_s: time_s.into_pyarray(py).unbind(),
         measured: first.y.clone().into_pyarray(py).unbind(),
         model_before: before.into_pyarray(py).unbind(),

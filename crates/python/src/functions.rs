@@ -120,7 +120,9 @@ pub fn bode<'py>(
     }
     let out = py_json(py, &json)?;
     let pts = &b.points;
-    let col = |f: &dyn Fn(&geared_servo_host::fr::Point) -> f64| -> Vec<f64> { pts.iter().map(f).collect() };
+    let col = |f: &dyn Fn(&geared_servo_host::fr::Point) -> f64| -> Vec<f64> {
+        pts.iter().map(f).collect()
+    };
     out.set_item("freq_hz", col(&|q| q.freq_hz).into_pyarray(py))?;
     out.set_item("gain_db", col(&|q| q.tach.gain_db()).into_pyarray(py))?;
     out.set_item("phase_deg", col(&|q| q.tach.phase_deg()).into_pyarray(py))?;
@@ -171,7 +173,9 @@ pub fn max_backlash<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let (p, name) = with_backlash(&params, None)?;
     let opts = options(vpk, hold, max_time_s, cold_start)?;
-    let (_, json) = detached(py, || fr_report::max_backlash(&p, &name, bandwidth_hz, opts))?;
+    let (_, json) = detached(py, || {
+        fr_report::max_backlash(&p, &name, bandwidth_hz, opts)
+    })?;
     py_json(py, &json)
 }
 

@@ -59,7 +59,11 @@ impl Params {
             Value::Real(value.extract().map_err(|_| {
                 InputError::new_err(format!(
                     "key `{key}`: expected a number, got {}",
-                    value.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+                    value
+                        .get_type()
+                        .name()
+                        .map(|n| n.to_string())
+                        .unwrap_or_default()
                 ))
             })?)
         };
@@ -135,7 +139,12 @@ impl Params {
 
     /// Every key path, in the file's order.
     fn keys(&self) -> PyResult<Vec<String>> {
-        Ok(self.list()?.entries().iter().map(|e| e.key.clone()).collect())
+        Ok(self
+            .list()?
+            .entries()
+            .iter()
+            .map(|e| e.key.clone())
+            .collect())
     }
 
     /// `{key: value}` for every key.
@@ -279,7 +288,9 @@ impl Params {
 #[pyfunction]
 pub fn schema() -> PyResult<Vec<(String, &'static str, String)>> {
     let geometry = ParamList::new(&REFERENCE).map_err(py_err)?;
-    let d = REFERENCE.derived().map_err(|e| py_err(HostError::from(e)))?;
+    let d = REFERENCE
+        .derived()
+        .map_err(|e| py_err(HostError::from(e)))?;
     let mut measured = REFERENCE;
     measured.gears.stiffness = Stiffness::Measured {
         k1_nm_per_rad: d.k1_nm_per_rad,

@@ -29,7 +29,9 @@ pub fn floats(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<f64>> {
         .call_method("asarray", (obj,), Some(&kwargs))
         .map_err(|e| InputError::new_err(format!("{what}: not numbers ({e})")))?;
     let arr: PyReadonlyArray1<'_, f64> = arr.extract().map_err(|_| {
-        InputError::new_err(format!("{what}: expected a one-dimensional array of numbers"))
+        InputError::new_err(format!(
+            "{what}: expected a one-dimensional array of numbers"
+        ))
     })?;
     Ok(arr.as_array().to_vec())
 }
@@ -53,7 +55,8 @@ pub fn record_of(obj: &Bound<'_, PyAny>, require_output: bool) -> PyResult<(Reco
             .collect::<PyResult<_>>()?;
         let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
         for k in keys {
-            let used = k == "time_s" || k == "motor_voltage_v" || OUTPUT_COLUMNS.contains(&k.as_str());
+            let used =
+                k == "time_s" || k == "motor_voltage_v" || OUTPUT_COLUMNS.contains(&k.as_str());
             // Columns the record format does not use are only named (and warned about).
             let values = if used {
                 floats(&obj.get_item(&k)?, &format!("{name}: column `{k}`"))?

@@ -201,7 +201,7 @@ def test_diagnose_returns_the_documented_report_and_the_clis_numbers(measured, c
         assert key in r["nominal"], key
     for key in ["nrmse", "fit_percent", "residual_white"]:
         assert key in r["final"], key
-    assert r["samples"] == 1600 and r["output"] == "tach_voltage_v"
+    assert r["samples"] == 1600 and r["output"] == d.output == "tach_voltage_v" and d.output_unit == "V"
     assert r["final"]["nrmse"] < r["nominal"]["nrmse"]
     run = cli("diagnose", "--data", path, "--max-steps", 1, "--json")
     assert run.returncode == 0, run.stderr
