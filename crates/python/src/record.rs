@@ -1,5 +1,5 @@
 //! Records from Python: a CSV path (the file format of docs/INTERFACES.md), a pandas
-//! DataFrame or a dict of numpy arrays (columns by name), checked by the host library with
+//! DataFrame, a dict of numpy arrays or a numpy structured array (columns by name), checked by the host library with
 //! the messages it gives for files; its warnings (ignored columns) become Python warnings.
 
 use crate::{py_err, InputError};
@@ -14,9 +14,27 @@ pub fn is_path(obj: &Bound<'_, PyAny>) -> bool {
     obj.is_instance_of::<PyString>() || obj.hasattr("__fspath__").unwrap_or(false)
 }
 
-/// Whether `obj` is a record given by columns (a DataFrame or a mapping).
+/// The column names of a record given by columns: a DataFrame or a mapping (`keys()`), or a
+/// numpy structured array (`dtype.names`); `None` for anything else.
+fn column_names(obj: &Bound<'_, PyAny>) -> PyResult<Option<Vec<String>>> {
+    let names = if obj.hasattr("keys")? {
+        obj.call_method0("keys")?
+    } else {
+        match obj.getattr("dtype").and_then(|d| d.getattr("names")) {
+            Ok(n) if !n.is_none() => n,
+            _ => return Ok(None),
+        }
+    };
+    let names = names
+        .try_iter()?
+        .map(|k| k.and_then(|k| k.str().map(|s| s.to_string())))
+        .collect::<PyResult<_>>()?;
+    Ok(Some(names))
+}
+
+/// Whether `obj` is a record given by columns (a DataFrame, a mapping, a structured array).
 pub fn is_columns(obj: &Bound<'_, PyAny>) -> bool {
-    obj.hasattr("keys").unwrap_or(false)
+    matches!(column_names(obj), Ok(Some(_)))
 }
 
 /// `obj` as a float64 array: `numpy.asarray(obj, dtype="float64")`, one-dimensional.
@@ -46,13 +64,8 @@ pub fn record_of(obj: &Bound<'_, PyAny>, require_output: bool) -> PyResult<(Reco
             .detach(|| record::read(&path, require_output))
             .map_err(py_err)?;
         (rec, path.display().to_string())
-    } else if is_columns(obj) {
+    } else if let Some(keys) = column_names(obj)? {
         let name = format!("<{}>", obj.get_type().name()?);
-        let keys: Vec<String> = obj
-            .call_method0("keys")?
-            .try_iter()?
-            .map(|k| k.and_then(|k| k.str().map(|s| s.to_string())))
-            .collect::<PyResult<_>>()?;
         let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
         for k in keys {
             let used =
@@ -73,7 +86,7 @@ pub fn record_of(obj: &Bound<'_, PyAny>, require_output: bool) -> PyResult<(Reco
         (rec, name)
     } else {
         return Err(InputError::new_err(format!(
-            "a record is a CSV path, a pandas DataFrame or a dict of arrays (time_s, motor_voltage_v, ...), got {}",
+            "a record is a CSV path, a pandas DataFrame, a dict of arrays or a structured array (time_s, motor_voltage_v, ...), got {}",
             obj.get_type().name()?
         )));
     };

@@ -228,4 +228,8 @@ def test_a_dataframe_or_a_dict_is_the_same_record_as_its_csv(measured):
     assert any("column `comment` is not used" in str(w.message) for w in caught)
     from_dict = gs.diagnose(p, {k: np.asarray(v) for k, v in record.items()}, max_steps=0)
     from_csv = gs.diagnose(p, path, max_steps=0)
-    assert from_frame.report == from_dict.report == from_csv.report
+    structured = np.rec.fromarrays([record[k] for k in record], names=list(record))
+    from_structured = gs.diagnose(p, structured, max_steps=0)
+    assert from_frame.report == from_dict.report == from_csv.report == from_structured.report
+    with pytest.raises(gs.InputError, match=r"^a record is a CSV path, a pandas DataFrame"):
+        gs.diagnose(p, 42)
