@@ -202,3 +202,16 @@ def test_a_step_that_is_not_whole_sample_periods_is_an_fmi_error(fmu):
     with pytest.raises(Exception, match=r"fmi2DoStep failed with status 3 \(error\)"):
         simulate_fmu(str(fmu), stop_time=0.01, output_interval=0.0007, logger=logger)
     assert any("is not a whole number of sample periods" in text for _, text in logged), logged
+
+
+def test_fmu_without_its_library_says_how_to_build_it(tmp_path):
+    """A `geared-servo` with no library beside it: one line, exit status 2, no archive."""
+    import shutil
+
+    exe = tmp_path / "geared-servo"
+    shutil.copy(cli_binary(), exe)
+    run = subprocess.run([str(exe), "fmu", "--out", str(tmp_path / "a.fmu")], capture_output=True, text=True)
+    assert run.returncode == 2
+    assert run.stderr.count("\n") == 1
+    assert "no FMU library beside this executable: build it with `cargo build --release -p geared-servo-fmu`" in run.stderr
+    assert not (tmp_path / "a.fmu").exists()
