@@ -116,6 +116,17 @@ pub enum Command {
     Synth(SynthArgs),
     /// Calibrate, analyse the residual, trace it to a missing effect, report before/after.
     Diagnose(DiagnoseArgs),
+    /// FMI 2.0 co-simulation FMU (Linux x86-64) of the parameter file: input motor voltage,
+    /// the outputs of `simulate`, every key of the file as a parameter.
+    Fmu {
+        /// Output archive.
+        #[arg(long, value_name = "OUT.fmu")]
+        out: PathBuf,
+        /// The FMU library (default: libgeared_servo_fmu.so beside this executable, built by
+        /// `cargo build --release -p geared-servo-fmu`).
+        #[arg(long, value_name = "LIB.so")]
+        library: Option<PathBuf>,
+    },
 }
 
 /// How the sine reaches the winding (`--hold`).
@@ -147,29 +158,11 @@ pub struct MeasureArgs {
 impl MeasureArgs {
     /// The sweep options for amplitude `vpk` (V).
     pub fn options(&self, vpk: f64) -> Result<SweepOptions, HostError> {
-        if !(vpk.is_finite() && vpk > 0.0) {
-            return Err(HostError::input(format!(
-                "--vpk must be a positive number of volts, got {vpk}"
-            )));
-        }
-        if !(self.max_time_s.is_finite() && self.max_time_s > 0.0) {
-            return Err(HostError::input(format!(
-                "--max-time-s must be positive, got {}",
-                self.max_time_s
-            )));
-        }
-        Ok(SweepOptions {
-            vpk,
-            hold: match self.hold {
-                HoldArg::Continuous => Hold::Continuous,
-                HoldArg::Zoh => Hold::Zoh,
-            },
-            settings: geared_servo::analyser::SweepSettings {
-                max_time_s: self.max_time_s,
-                ..geared_servo::analyser::SweepSettings::DEFAULT
-            },
-            warm_start: !self.cold_start,
-        })
+        let hold = match self.hold {
+            HoldArg::Continuous => Hold::Continuous,
+            HoldArg::Zoh => Hold::Zoh,
+        };
+        geared_servo_host::fr_report::sweep_options(vpk, hold, self.max_time_s, self.cold_start)
     }
 }
 

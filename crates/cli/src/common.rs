@@ -26,14 +26,11 @@ pub fn load_params(
         .as_ref()
         .map(|p| p.display().to_string())
         .unwrap_or_else(|| params_file::REFERENCE_NAME.to_string());
-    let mut p = params_file::load(cli.params.as_deref())?;
-    if let Some(b) = backlash_deg {
-        p.backlash_deg = b;
-        params_file::validate(&p, "--backlash-deg").map_err(|e| {
-            HostError::input(e.message.replace("key `backlash.total_deg`", "value"))
-        })?;
+    let p = params_file::load(cli.params.as_deref())?;
+    match backlash_deg {
+        Some(b) => Ok((params_file::with_backlash(&p, b)?, name)),
+        None => Ok((p, name)),
     }
-    Ok((p, name))
 }
 
 /// Reads the record at `path` (with at least one output column when `require_output`),
@@ -48,11 +45,6 @@ pub fn read_record(
     for w in &rec.warnings {
         eprintln!("warning: {w}");
     }
-    let mut p = *params;
-    p.sample_period_s = rec.sample_period_s;
-    params_file::validate(
-        &p,
-        &format!("{} (sample period of the record)", path.display()),
-    )?;
+    params_file::validate_for_record(params, rec.sample_period_s, &path.display().to_string())?;
     Ok(rec)
 }

@@ -58,36 +58,9 @@ pub fn run(cli: &Cli, a: &DiagnoseArgs) -> Result<Report, HostError> {
         std::fs::create_dir_all(dir)
             .map_err(|e| HostError::other(format!("{}: cannot create: {e}", dir.display())))?;
         let toml_path = dir.join("calibrated.toml");
-        let mut header = vec![
-            format!(
-                "calibrated by geared-servo {} diagnose",
-                env!("CARGO_PKG_VERSION")
-            ),
-            format!(
-                "from {name} against {}",
-                a.data
-                    .iter()
-                    .map(|d| d.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-            format!(
-                "NRMSE {:.4} (file) -> {:.4} (calibrated)",
-                out.nominal_analysis.nrmse, out.final_analysis.nrmse
-            ),
-        ];
-        if !out.steps.is_empty() {
-            header.push(format!(
-                "effects added: {}",
-                out.steps
-                    .iter()
-                    .map(|s| s.effect.name())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ));
-        }
-        let mut fp = out.final_fit.params;
-        fp.sample_period_s = p.sample_period_s;
+        let data_names: Vec<String> = a.data.iter().map(|d| d.display().to_string()).collect();
+        let header = out.calibrated_header(&name, &data_names);
+        let fp = out.calibrated(&p);
         std::fs::write(&toml_path, params_file::to_toml(&fp, &header)?)
             .map_err(|e| HostError::other(format!("{}: {e}", toml_path.display())))?;
         diagnose_plots::time_series(

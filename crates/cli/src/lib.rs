@@ -9,6 +9,7 @@
 pub mod args;
 pub mod common;
 pub mod diagnose;
+pub mod fmu;
 pub mod frequency;
 pub mod paper;
 pub mod progress;
@@ -65,5 +66,6 @@ pub fn run(cli: &Cli) -> Result<Report, HostError> {
         Command::Paper { out, bandwidth_hz } => crate::paper::run(cli, out, *bandwidth_hz),
         Command::Synth(a) => crate::synth::run(cli, a),
         Command::Diagnose(a) => crate::diagnose::run(cli, a),
+        Command::Fmu { out, library } => crate::fmu::run(cli, out, library.as_deref()),
     }
 }

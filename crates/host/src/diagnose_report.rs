@@ -45,6 +45,41 @@ fn fit_json(f: &Fit) -> Value {
 }
 
 impl Outcome {
+    /// The calibrated parameter set, at the sample period of the file the diagnosis started
+    /// from (`start`): what `diagnose --out` writes to `calibrated.toml`.
+    pub fn calibrated(&self, start: &ActuatorParams) -> ActuatorParams {
+        let mut p = self.final_fit.params;
+        p.sample_period_s = start.sample_period_s;
+        p
+    }
+
+    /// The header comments of `calibrated.toml`: the tool, the parameter file (`params_name`)
+    /// and records (`data_names`) it came from, the error before and after, the effects added.
+    pub fn calibrated_header(&self, params_name: &str, data_names: &[String]) -> Vec<String> {
+        let mut header = vec![
+            format!(
+                "calibrated by geared-servo {} diagnose",
+                env!("CARGO_PKG_VERSION")
+            ),
+            format!("from {params_name} against {}", data_names.join(", ")),
+            format!(
+                "NRMSE {:.4} (file) -> {:.4} (calibrated)",
+                self.nominal_analysis.nrmse, self.final_analysis.nrmse
+            ),
+        ];
+        if !self.steps.is_empty() {
+            header.push(format!(
+                "effects added: {}",
+                self.steps
+                    .iter()
+                    .map(|s| s.effect.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        header
+    }
+
     /// The JSON object of INTERFACES.md ("diagnose --json"), with more keys.
     pub fn to_json(&self, first: &Data) -> Value {
         let names: Vec<&str> = self.steps.iter().map(|s| s.effect.name()).collect();

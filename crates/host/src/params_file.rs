@@ -357,6 +357,24 @@ pub fn validate(p: &ActuatorParams, name: &str) -> Result<(), HostError> {
         .map_err(|e| HostError::from(e).at(name))
 }
 
+/// Validates `p` at the sample period of a record named `record` (`dt`, s): the record's
+/// rate is the one it runs at, and it must suit the parameters.
+pub fn validate_for_record(p: &ActuatorParams, dt: f64, record: &str) -> Result<(), HostError> {
+    let mut p = *p;
+    p.sample_period_s = dt;
+    validate(&p, &format!("{record} (sample period of the record)"))
+}
+
+/// `p` with the total backlash of `--backlash-deg`, degrees, validated; the message says
+/// what is wrong with the value (`--backlash-deg: value must not be negative`).
+pub fn with_backlash(p: &ActuatorParams, backlash_deg: f64) -> Result<ActuatorParams, HostError> {
+    let mut p = *p;
+    p.backlash_deg = backlash_deg;
+    validate(&p, "--backlash-deg")
+        .map_err(|e| HostError::input(e.message.replace("key `backlash.total_deg`", "value")))?;
+    Ok(p)
+}
+
 /// Reads and validates a parameter file; `None` gives the bundled reference actuator.
 pub fn load(path: Option<&Path>) -> Result<ActuatorParams, HostError> {
     match path {

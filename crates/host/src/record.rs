@@ -196,9 +196,7 @@ pub fn parse(text: &str, name: &str, require_output: bool) -> Result<Record, Hos
         let t = field(t_col, "time_s")?;
         if let Some(&prev) = time_s.last() {
             if t <= prev {
-                return Err(HostError::input(format!(
-                    "{name}: line {line}, column `time_s`: time {t} does not increase (previous row {prev})"
-                )));
+                return Err(not_increasing(&format!("{name}: line {line}"), t, prev));
             }
         }
         time_s.push(t);
@@ -207,6 +205,111 @@ pub fn parse(text: &str, name: &str, require_output: bool) -> Result<Record, Hos
             o.push(field(*i, cname)?);
         }
     }
+    let dt = sample_period(&time_s, name, |k| {
+        format!("{name}: line {}", header_line + k + 1)
+    })?;
+    Ok(Record {
+        metadata,
+        time_s,
+        sample_period_s: dt,
+        motor_voltage_v: volts,
+        outputs: out_cols.into_iter().map(|(n, _)| n).zip(outs).collect(),
+        warnings,
+    })
+}
+
+/// A record from columns already in memory (a pandas DataFrame, numpy arrays), checked as
+/// [`parse`] checks a file, with the same messages; rows are counted from 0 (`NAME: row 3,
+/// column `time_s`: ...`). Columns other than `time_s`, `motor_voltage_v` and
+/// [`OUTPUT_COLUMNS`] are ignored with a warning, as in a file.
+pub fn from_columns(
+    name: &str,
+    columns: &[(&str, &[f64])],
+    require_output: bool,
+) -> Result<Record, HostError> {
+    let mut warnings = Vec::new();
+    for (k, (h, _)) in columns.iter().enumerate() {
+        if columns.iter().take(k).any(|(g, _)| g == h) {
+            return Err(HostError::input(format!(
+                "{name}: column `{}` appears twice",
+                shown(h)
+            )));
+        }
+        if *h != "time_s" && *h != "motor_voltage_v" && !OUTPUT_COLUMNS.contains(h) {
+            warnings.push(format!(
+                "{name}: column `{}` is not used and was ignored",
+                shown(h)
+            ));
+        }
+    }
+    let col = |c: &str| columns.iter().find(|(h, _)| *h == c).map(|(_, v)| *v);
+    let required = |c: &str| {
+        col(c).ok_or_else(|| HostError::input(format!("{name}: missing required column `{c}`")))
+    };
+    let (t, v) = (required("time_s")?, required("motor_voltage_v")?);
+    let outs: Vec<(&str, &[f64])> = OUTPUT_COLUMNS
+        .iter()
+        .filter_map(|c| col(c).map(|v| (*c, v)))
+        .collect();
+    if require_output && outs.is_empty() {
+        return Err(HostError::input(format!(
+            "{name}: no output column (need at least one of {})",
+            OUTPUT_COLUMNS.join(", ")
+        )));
+    }
+    let checked = [("time_s", t), ("motor_voltage_v", v)]
+        .into_iter()
+        .chain(outs.iter().copied());
+    for (c, x) in checked {
+        if x.len() != t.len() {
+            return Err(HostError::input(format!(
+                "{name}: column `{c}` has {} rows, column `time_s` has {}",
+                x.len(),
+                t.len()
+            )));
+        }
+        if let Some(k) = x.iter().position(|x| !x.is_finite()) {
+            return Err(HostError::input(format!(
+                "{name}: row {k}, column `{c}`: `{}` is not finite",
+                x.get(k).copied().unwrap_or(f64::NAN)
+            )));
+        }
+    }
+    for (k, pair) in t.windows(2).enumerate() {
+        if let [prev, t] = *pair {
+            if t <= prev {
+                return Err(not_increasing(&format!("{name}: row {}", k + 1), t, prev));
+            }
+        }
+    }
+    let dt = sample_period(t, name, |k| format!("{name}: row {k}"))?;
+    Ok(Record {
+        metadata: Vec::new(),
+        time_s: t.to_vec(),
+        sample_period_s: dt,
+        motor_voltage_v: v.to_vec(),
+        outputs: outs
+            .iter()
+            .map(|(c, v)| (c.to_string(), v.to_vec()))
+            .collect(),
+        warnings,
+    })
+}
+
+/// `time_s` at `place` does not increase.
+fn not_increasing(place: &str, t: f64, prev: f64) -> HostError {
+    HostError::input(format!(
+        "{place}, column `time_s`: time {t} does not increase (previous row {prev})"
+    ))
+}
+
+/// The mean sample period of increasing `time_s`, which must have two rows at least and be
+/// uniform within 1 %; `row(k)` names row k (0-based) in messages.
+fn sample_period(
+    time_s: &[f64],
+    name: &str,
+    row: impl Fn(usize) -> String,
+) -> Result<f64, HostError> {
     if time_s.len() < 2 {
         return Err(HostError::input(format!(
             "{name}: needs at least two data rows, found {}",
@@ -222,20 +325,13 @@ pub fn parse(text: &str, name: &str, require_output: bool) -> Result<Record, Hos
         let [a, b] = pair else { continue };
         let d = b - a;
         if (d - dt).abs() > 0.01 * dt {
-            let line = header_line + k + 2;
             return Err(HostError::input(format!(
-                "{name}: line {line}, column `time_s`: sampling is not uniform (step {d:.6e} s against a mean of {dt:.6e} s; 1 % allowed)"
+                "{}, column `time_s`: sampling is not uniform (step {d:.6e} s against a mean of {dt:.6e} s; 1 % allowed)",
+                row(k + 1)
             )));
         }
     }
-    Ok(Record {
-        metadata,
-        time_s,
-        sample_period_s: dt,
-        motor_voltage_v: volts,
-        outputs: out_cols.into_iter().map(|(n, _)| n).zip(outs).collect(),
-        warnings,
-    })
+    Ok(dt)
 }
 
 /// Writes columns as CSV: `comments` as leading `# ` lines, then the header and the rows.
@@ -283,4 +379,66 @@ pub fn write_file(path: &Path, text: &str) -> Result<(), HostError> {
         .map_err(|e| HostError::other(format!("{}: {e}", path.display())))?;
     f.write_all(text.as_bytes())
         .map_err(|e| HostError::other(format!("{}: {e}", path.display())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn columns_in_memory_read_as_the_same_csv_does() {
+        let text = "time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.0005,2,0.1\n0.001,3,0.2\n";
+        let csv = parse(text, "m", true).unwrap();
+        let (t, v, y) = ([0.0, 0.0005, 0.001], [1.0, 2.0, 3.0], [0.0, 0.1, 0.2]);
+        let mem = from_columns(
+            "m",
+            &[
+                ("time_s", &t),
+                ("motor_voltage_v", &v),
+                ("tach_voltage_v", &y),
+            ],
+            true,
+        )
+        .unwrap();
+        assert_eq!(mem, csv);
+    }
+
+    #[test]
+    fn columns_in_memory_are_refused_with_the_files_messages_by_row() {
+        let (t, v) = ([0.0, 0.0005, 0.001], [1.0, 2.0, 3.0]);
+        let e = from_columns("df", &[("time_s", &t), ("motor_voltage_v", &v)], true).unwrap_err();
+        assert!(
+            e.message
+                .starts_with("df: no output column (need at least one of"),
+            "{e}"
+        );
+        let e = from_columns("df", &[("time_s", &t), ("tach_voltage_v", &v)], true).unwrap_err();
+        assert_eq!(e.message, "df: missing required column `motor_voltage_v`");
+        let back = [0.0, 0.001, 0.0005];
+        let e =
+            from_columns("df", &[("time_s", &back), ("motor_voltage_v", &v)], false).unwrap_err();
+        assert_eq!(
+            e.message,
+            "df: row 2, column `time_s`: time 0.0005 does not increase (previous row 0.001)"
+        );
+        let nan = [1.0, f64::NAN, 3.0];
+        let e =
+            from_columns("df", &[("time_s", &t), ("motor_voltage_v", &nan)], false).unwrap_err();
+        assert_eq!(
+            e.message,
+            "df: row 1, column `motor_voltage_v`: `NaN` is not finite"
+        );
+        let uneven = [0.0, 0.0005, 0.0015, 0.002];
+        let e = from_columns(
+            "df",
+            &[("time_s", &uneven), ("motor_voltage_v", &[0.0; 4])],
+            false,
+        )
+        .unwrap_err();
+        assert!(
+            e.message
+                .starts_with("df: row 1, column `time_s`: sampling is not uniform"),
+            "{e}"
+        );
+    }
 }

@@ -3,7 +3,7 @@
 
 use crate::error::HostError;
 use crate::scenario_file::HostScenario;
-use geared_servo::{ActuatorParams, Plant, PlantState};
+use geared_servo::{ActuatorParams, Outputs, Plant, PlantState};
 
 /// Columns `simulate` writes, after `time_s` and `motor_voltage_v`.
 pub const SIMULATE_COLUMNS: [&str; 8] = [
@@ -16,6 +16,22 @@ pub const SIMULATE_COLUMNS: [&str; 8] = [
     "in_contact",
     "mean_current_a",
 ];
+
+/// The values of [`SIMULATE_COLUMNS`] for one sample, in their units (`in_contact`: 1 while
+/// the gears touch, else 0). `simulate` writes them and the FMU's outputs are them.
+pub fn row(o: &Outputs) -> [f64; SIMULATE_COLUMNS.len()] {
+    [
+        o.tach_voltage_v,
+        o.motor_speed_rad_s,
+        o.load_angle_deg(),
+        o.current_a,
+        o.load_speed_rad_s,
+        o.transmitted_torque_nm,
+        if o.in_contact { 1.0 } else { 0.0 },
+        o.mean_current_a,
+    ]
+    .map(f64::from)
+}
 
 /// Simulates `volts` (one per row, applied after that row's sample) from rest at period
 /// `dt`; returns the columns of [`SIMULATE_COLUMNS`], each `volts.len()` long.
@@ -41,18 +57,8 @@ pub fn simulate_with_scenario(
     let mut cols = vec![Vec::with_capacity(volts.len()); SIMULATE_COLUMNS.len()];
     let mut o = plant.outputs(&st);
     for (k, &v) in volts.iter().enumerate() {
-        let row = [
-            o.tach_voltage_v,
-            o.motor_speed_rad_s,
-            o.load_angle_deg(),
-            o.current_a,
-            o.load_speed_rad_s,
-            o.transmitted_torque_nm,
-            if o.in_contact { 1.0 } else { 0.0 },
-            o.mean_current_a,
-        ];
-        for (c, x) in cols.iter_mut().zip(row) {
-            c.push(f64::from(x));
+        for (c, x) in cols.iter_mut().zip(row(&o)) {
+            c.push(x);
         }
         o = match scenario.as_deref_mut() {
             Some(sc) => {

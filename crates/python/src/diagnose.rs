@@ -1,0 +1,160 @@
+//! `geared_servo.diagnose`: calibrate, trace the residual, report, as `geared-servo
+//! diagnose`; the result carries the report (the dict of `diagnose --json`), the calibrated
+//! `Params` and the measured and model outputs for plotting.
+
+use crate::params::Params;
+use crate::record::record_of;
+use crate::{detached, py_err, py_json, InputError};
+use geared_servo::Effect;
+use geared_servo_host::calibrate::{self, Data};
+use geared_servo_host::diagnose::{diagnose as run, fittable, Options};
+use geared_servo_host::diagnose_report::insert;
+use geared_servo_host::{params_file, HostError};
+use numpy::{IntoPyArray, PyArray1};
+use pyo3::prelude::*;
+use pyo3::types::{PyList, PyTuple};
+use serde_json::json;
+
+/// The result of `diagnose`.
+#[pyclass(module = "geared_servo", name = "Diagnosis", frozen)]
+pub struct Diagnosis {
+    /// The dict of `diagnose --json` (docs/INTERFACES.md): `samples`, `sample_period_s`,
+    /// `output`, `nominal`, `steps`, `added_effects`, `final`, `unexplained`, ...
+    #[pyo3(get)]
+    report: Py<PyAny>,
+    /// The calibrated parameters (with the effects added), at the sample period of the
+    /// parameters diagnosed: what `diagnose --out` writes to `calibrated.toml`.
+    #[pyo3(get)]
+    params: Py<Params>,
+    /// The human summary `diagnose` prints.
+    #[pyo3(get)]
+    summary: String,
+    /// The output fitted (`tach_voltage_v`, ...), of the first record.
+    #[pyo3(get)]
+    output: String,
+    /// The unit of `output` (`"V"`, `"rad/s"`, ...).
+    #[pyo3(get)]
+    output_unit: &'static str,
+    /// Time of each row of the first record from its start, s.
+    #[pyo3(get)]
+    time_s: Py<PyArray1<f64>>,
+    /// The measured output of the first record, in its unit.
+    #[pyo3(get)]
+    measured: Py<PyArray1<f64>>,
+    /// The model's output with the parameters diagnosed, on the first record.
+    #[pyo3(get)]
+    model_before: Py<PyArray1<f64>>,
+    /// The model's output with the calibrated parameters, on the first record.
+    #[pyo3(get)]
+    model_after: Py<PyArray1<f64>>,
+    toml: String,
+}
+
+#[pymethods]
+impl Diagnosis {
+    /// The calibrated parameter file as `diagnose --out` writes it (`calibrated.toml`,
+    /// with its header).
+    fn to_toml(&self) -> String {
+        self.toml.clone()
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Diagnosis(output={:?})", self.output)
+    }
+}
+
+/// Calibrates `params` against `record` (a CSV path, a DataFrame or a dict of arrays with
+/// `time_s`, `motor_voltage_v` and an output; or a list of them, fitted together), analyses
+/// the residual and adds the effects that explain it, as `geared-servo diagnose`.
+/// `validate` is a record that is not fitted (`--validate`), `candidates` the effect names
+/// to try (`--candidates`, default all), `max_steps` the most effects added, `fit` the key
+/// paths to calibrate instead of the default set (`--fit`).
+#[pyfunction]
+#[pyo3(signature = (params, record, validate = None, candidates = None, max_steps = 3, fit = None))]
+pub fn diagnose<'py>(
+    py: Python<'py>,
+    params: PyRef<'py, Params>,
+    record: &Bound<'py, PyAny>,
+    validate: Option<&Bound<'py, PyAny>>,
+    candidates: Option<Vec<String>>,
+    max_steps: usize,
+    fit: Option<Vec<String>>,
+) -> PyResult<Diagnosis> {
+    let (p, name) = (params.p, params.name.clone());
+    let records: Vec<Bound<'py, PyAny>> =
+        if record.is_instance_of::<PyList>() || record.is_instance_of::<PyTuple>() {
+            record.try_iter()?.collect::<PyResult<_>>()?
+        } else {
+            vec![record.clone()]
+        };
+    let mut data = Vec::new();
+    let mut names = Vec::new();
+    for r in &records {
+        let (rec, rname) = record_of(r, true)?;
+        params_file::validate_for_record(&p, rec.sample_period_s, &rname).map_err(py_err)?;
+        data.push(Data::from_record(&rec, &rname).map_err(py_err)?);
+        names.push(rname);
+    }
+    let val = match validate {
+        Some(v) => {
+            let (rec, vname) = record_of(v, true)?;
+            Some(Data::from_record(&rec, &vname).map_err(py_err)?)
+        }
+        None => None,
+    };
+    let mut opts = Options {
+        max_steps,
+        ..Options::default()
+    };
+    if let Some(c) = &candidates {
+        opts.candidates = c
+            .iter()
+            .map(|n| {
+                Effect::from_name(n).map_err(|e| InputError::new_err(format!("--candidates: {e}")))
+            })
+            .collect::<PyResult<_>>()?;
+    }
+    if let Some(f) = &fit {
+        fittable(&p, f).map_err(|e| InputError::new_err(format!("--fit: {}", e.message)))?;
+        opts.fit = Some(f.clone());
+    }
+    let first = data
+        .first()
+        .cloned()
+        .ok_or_else(|| InputError::new_err("no record"))?;
+    let (out, json, before, after) = detached(py, || {
+        let out = run(&p, &data, val.as_ref(), &opts)?;
+        let mut json = out.to_json(&first);
+        insert(&mut json, "params", json!(name));
+        let sim = |q| {
+            calibrate::simulate(q, &first)
+                .map(|t| t.y)
+                .ok_or_else(|| HostError::other("the model cannot run on the record"))
+        };
+        let (before, after) = (sim(&out.nominal)?, sim(&out.final_fit.params)?);
+        Ok((out, json, before, after))
+    })?;
+    let calibrated = out.calibrated(&p);
+    let toml =
+        params_file::to_toml(&calibrated, &out.calibrated_header(&name, &names)).map_err(py_err)?;
+    let h = first.sample_period_s;
+    let time_s: Vec<f64> = (0..first.y.len()).map(|k| k as f64 * h).collect();
+    Ok(Diagnosis {
+        report: py_json(py, &json)?.unbind(),
+        params: Py::new(
+            py,
+            Params {
+                p: calibrated,
+                name: format!("calibrated from {name}"),
+            },
+        )?,
+        summary: out.summary(),
+        output: first.output.clone(),
+        output_unit: geared_servo_host::param_list::unit_of(&first.output).unwrap_or("-"),
+        time_s: time_s.into_pyarray(py).unbind(),
+        measured: first.y.clone().into_pyarray(py).unbind(),
+        model_before: before.into_pyarray(py).unbind(),
+        model_after: after.into_pyarray(py).unbind(),
+        toml,
+    })
+}
