@@ -258,6 +258,9 @@ pub struct Plant {
     v_max: f32,
     /// `effects.drive_deadband`, V (0: off).
     v_db: f32,
+    /// An input delay or a bench effect is on (stiction, gravity, dead band, tachometer
+    /// offset, pickup or lag): [`Plant::step`] takes its general instance.
+    general: bool,
     tau_e: f32,
     /// Sub-steps per step when a step is redone (see [`MIN_SUB_STEPS`]).
     sub_steps: u16,
@@ -304,6 +307,7 @@ impl Plant {
         }
 
         let m = &params.motor;
+        let tach = Tach::new(params, h)?;
         // Static over sliding friction; 0 (off) is the same as 1, exactly.
         let stiction = if params.effects.stiction_ratio > 0.0 {
             params.effects.stiction_ratio
@@ -349,9 +353,15 @@ impl Plant {
                 params.load.coulomb_friction_nm * stiction,
                 Effect::StictionRatio.key(),
             )?,
-            tach: Tach::new(params, h)?,
+            tach,
             v_max,
             v_db: to_f32(params.effects.drive_deadband, Effect::DriveDeadband.key())?,
+            general: whole > 0.0
+                || frac > 0.0
+                || stiction > 1.0
+                || params.effects.gravity_torque != 0.0
+                || params.effects.drive_deadband > 0.0
+                || tach.extra(),
             tau_e: to_f32(m.inductance_h / m.resistance_ohm, "motor.inductance_h")?,
             sub_steps: sub_steps as u16,
             always_sub,
@@ -387,9 +397,41 @@ impl Plant {
     /// outputs without a copy through memory (measured: 408 → 392 instructions per step on
     /// the Cortex-M4F, 22–25 → 19–20 ns on the host; the rare sub-stepped path stays out of
     /// line).
+    ///
+    /// The input delay and the bench effects (stiction, gravity, dead band, the
+    /// tachometer's offset, pickup and lag) run in a second, out-of-line instance of the
+    /// step, the general one; a plant with none of them takes the inlined plain instance,
+    /// where every test of them folds away. The one test of the flag replaces the delay's
+    /// own tests (measured on the Cortex-M4F, docs/cost.md: testing the bench effects in
+    /// the step cost 73 instructions per step, a flag for them alone 17).
     #[inline(always)]
     pub fn step(&self, state: &mut PlantState, voltage_v: f32) -> Outputs {
-        self.step_in(state, voltage_v, None)
+        if self.general {
+            self.step_general(state, voltage_v)
+        } else {
+            self.step_in::<false>(state, voltage_v, None)
+        }
+    }
+
+    /// The general instance of the step (see [`Plant::step`]); cold, so that the branch to
+    /// it costs the plain instance no saved registers. Without faults (a separate function
+    /// from the faulty one, so that every fault test folds away here too).
+    #[cold]
+    #[inline(never)]
+    fn step_general(&self, state: &mut PlantState, voltage_v: f32) -> Outputs {
+        self.step_in::<true>(state, voltage_v, None)
+    }
+
+    /// The general instance with faults ([`Plant::step_with_faults`]).
+    #[cold]
+    #[inline(never)]
+    fn step_general_faulty(
+        &self,
+        state: &mut PlantState,
+        voltage_v: f32,
+        faults: &PlantFaults,
+    ) -> Outputs {
+        self.step_in::<true>(state, voltage_v, Some(faults))
     }
 
     /// [`Plant::step`] with run-time faults of the mechanics and the winding (see
@@ -404,13 +446,19 @@ impl Plant {
         voltage_v: f32,
         faults: &PlantFaults,
     ) -> Outputs {
-        self.step_in(state, voltage_v, Some(faults))
+        if self.general {
+            self.step_general_faulty(state, voltage_v, faults)
+        } else {
+            self.step_in::<false>(state, voltage_v, Some(faults))
+        }
     }
 
     /// The step. `None` (no fault) is known at compile time in [`Plant::step`], so every
-    /// fault check folds away there.
+    /// fault check folds away there; so does every test of the input delay and of the bench
+    /// effects when `GENERAL` is false (the plant has none: `self.general`). With `GENERAL`
+    /// true and all of them off, the values are the same.
     #[inline(always)]
-    fn step_in(
+    fn step_in<const GENERAL: bool>(
         &self,
         state: &mut PlantState,
         voltage_v: f32,
@@ -418,8 +466,12 @@ impl Plant {
     ) -> Outputs {
         let nominal = faults.is_none_or(|f| *f == PlantFaults::NONE);
         let faults = faults.unwrap_or(&PlantFaults::NONE);
-        let cmd = self.saturate(voltage_v);
-        let (mut v_early, mut v_late) = if self.has_delay {
+        let cmd = self.saturate(if GENERAL && self.v_db > 0.0 {
+            self.dead_band(voltage_v)
+        } else {
+            voltage_v
+        });
+        let (mut v_early, mut v_late) = if GENERAL && self.has_delay {
             self.delayed(state, cmd)
         } else {
             (cmd, cmd)
@@ -436,7 +488,11 @@ impl Plant {
             s0[WL] = 0.0;
         }
         let c = if nominal {
-            self.nominal_at(&s0)
+            if GENERAL {
+                self.general_ctx(&s0)
+            } else {
+                self.plain()
+            }
         } else {
             self.context(faults, &s0)
         };
@@ -444,7 +500,7 @@ impl Plant {
             let v = self.open_voltage(&c, &s0);
             (v_early, v_late) = (v, v);
         }
-        let (mut s1, gear) = self.advance_step(&c, &s0, v_early, v_late);
+        let (mut s1, gear) = self.advance_step::<GENERAL>(&c, &s0, v_early, v_late);
         if faults.winding == Winding::Open {
             s1[I] = 0.0;
         }
@@ -465,7 +521,7 @@ impl Plant {
         }
         state.set(&s1);
         // Without a delay both parts are the command, and this mean is exactly it.
-        let v_mean = if self.has_delay {
+        let v_mean = if GENERAL && self.has_delay {
             v_early * self.delay_frac + v_late * (1.0 - self.delay_frac)
         } else {
             v_late
@@ -483,10 +539,10 @@ impl Plant {
         } else {
             self.mean_current(&s0, &s1, v_mean)
         };
-        if self.tach.lagged() {
+        if GENERAL && self.tach.lagged() {
             self.sense(state, &s0, &s1, mean_current);
         }
-        let mut out = self.outputs_gear(&c_end, state, gear);
+        let mut out = self.outputs_gear::<GENERAL>(&c_end, state, gear);
         out.applied_voltage_v = v_late;
         out.mean_current_a = mean_current;
         out
@@ -564,12 +620,13 @@ impl Plant {
 
     #[inline(always)]
     fn outputs_in(&self, c: &Ctx, state: &PlantState) -> Outputs {
-        self.outputs_gear(c, state, self.gear_of(c, state.twist_rad))
+        self.outputs_gear::<true>(c, state, self.gear_of(c, state.twist_rad))
     }
 
-    /// Outputs of `state` whose gear contact (`gear_of`) is `gear`.
+    /// Outputs of `state` whose gear contact (`gear_of`) is `gear`; without `GENERAL` the
+    /// tachometer is its sensitivity times the speed (the plant has no bench effect).
     #[inline(always)]
-    fn outputs_gear(&self, c: &Ctx, state: &PlantState, gear: i8) -> Outputs {
+    fn outputs_gear<const GENERAL: bool>(&self, c: &Ctx, state: &PlantState, gear: i8) -> Outputs {
         let s = state.vec();
         let applied = state
             .history
@@ -582,7 +639,11 @@ impl Plant {
             transmitted -= c.lost;
         }
         Outputs {
-            tach_voltage_v: self.tach.read(state.tach_filter_v, s[WM], s[I]),
+            tach_voltage_v: if GENERAL {
+                self.tach.read(state.tach_filter_v, s[WM], s[I])
+            } else {
+                self.tach.plain(s[WM])
+            },
             motor_speed_rad_s: s[WM],
             motor_angle_rad: self.n * (s[X] + s[TH]),
             load_speed_rad_s: s[WL],
@@ -615,14 +676,9 @@ impl Plant {
             + f64::from(self.gravity) * (1.0 - libm::cos(s[TH]))
     }
 
-    /// The voltage the drive applies for command `v`: through the dead band, then limited.
+    /// The voltage the drive applies for a command `v` (after the dead band): limited.
     #[inline(always)]
     fn saturate(&self, v: f32) -> f32 {
-        let v = if self.v_db > 0.0 {
-            self.dead_band(v)
-        } else {
-            v
-        };
         if abs(v) <= self.v_max {
             v
         } else if v > 0.0 {
@@ -713,6 +769,43 @@ mod tests {
                 let o = p.step(&mut s, v);
                 assert!(o.tach_voltage_v.is_finite() && o.current_a.is_finite());
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod general_instance_tests {
+    use super::*;
+    use crate::params::REFERENCE;
+
+    /// The step's general instance without delay or bench effects computes what the plain
+    /// instance computes, bit for bit (so switching instances by the flag changes nothing
+    /// but speed): backlash, friction, mesh damping, events and a fault.
+    #[test]
+    fn general_instance_without_its_effects_is_the_plain_step() {
+        let mut p = REFERENCE.with_backlash_deg(0.08);
+        p.effects.mesh_damping = 0.01;
+        let plain = Plant::new(&p).unwrap();
+        assert!(!plain.general);
+        let mut bench = plain.clone();
+        bench.general = true;
+        let faults = PlantFaults {
+            load_torque_nm: 0.02,
+            ..PlantFaults::NONE
+        };
+        let (mut a, mut b) = (PlantState::REST, PlantState::REST);
+        for k in 0..3000u32 {
+            let v = if (k / 150) % 2 == 0 { 9.0 } else { -7.5 } + 0.3 * (k % 7) as f32;
+            let (oa, ob) = if k % 500 < 250 {
+                (plain.step(&mut a, v), bench.step(&mut b, v))
+            } else {
+                (
+                    plain.step_with_faults(&mut a, v, &faults),
+                    bench.step_with_faults(&mut b, v, &faults),
+                )
+            };
+            assert_eq!(oa, ob, "step {k}");
+            assert_eq!(a, b, "step {k}");
         }
     }
 }

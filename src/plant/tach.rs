@@ -162,6 +162,18 @@ impl Tach {
         })
     }
 
+    /// Whether any effect beyond the gain is on (offset, pickup or lag).
+    #[inline(always)]
+    pub(super) fn extra(&self) -> bool {
+        self.extra
+    }
+
+    /// The output without offset, pickup or lag: `k ωm`, V ([`Tach::read`] when none is on).
+    #[inline(always)]
+    pub(super) fn plain(&self, speed: f32) -> f32 {
+        self.k * speed
+    }
+
     /// Whether the lag is on (the plant then advances the filter each step).
     #[inline(always)]
     pub(super) fn lagged(&self) -> bool {
