@@ -141,8 +141,8 @@ fn record_rows() -> Vec<Row> {
             "time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.001,1,0\n0.0005,1,0\n",
         ),
         (
-            "non-uniform sampling (beyond 1 %)",
-            "time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.0005,1,0\n0.0011,1,0\n0.0015,1,0\n",
+            "a gap in the time base (samples missing: an interval over 1.5 typical periods)",
+            "time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.0005,1,0\n0.001,1,0\n0.0025,1,0\n0.003,1,0\n",
         ),
         (
             "a row with too few fields",

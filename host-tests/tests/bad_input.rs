@@ -406,8 +406,8 @@ fn broken_records_name_line_and_column() {
             "line 4, column `time_s`: time 0.0005 does not increase",
         ),
         (
-            "time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.0005,1,0\n0.0011,1,0\n0.0015,1,0\n",
-            "sampling is not uniform",
+            "time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.0005,1,0\n0.001,1,0\n0.0025,1,0\n0.003,1,0\n",
+            "line 5, column `time_s`: a gap of",
         ),
         (
             "# a: b\ntime_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.0005,1\n",
