@@ -10,6 +10,7 @@ pub mod args;
 pub mod common;
 pub mod diagnose;
 pub mod frequency;
+pub mod init;
 pub mod paper;
 pub mod progress;
 pub mod synth;
@@ -65,5 +66,6 @@ pub fn run(cli: &Cli) -> Result<Report, HostError> {
         Command::Paper { out, bandwidth_hz } => crate::paper::run(cli, out, *bandwidth_hz),
         Command::Synth(a) => crate::synth::run(cli, a),
         Command::Diagnose(a) => crate::diagnose::run(cli, a),
+        Command::Init(a) => crate::init::run(a),
     }
 }
