@@ -296,3 +296,68 @@ fn all_six_together_agree_with_the_rk4_reference() {
     assert!(e_tach <= 0.01, "tachometer {e_tach}");
     assert!(e_angle <= 0.01, "load angle {e_angle}");
 }
+
+mod properties {
+    use geared_servo::{ActuatorParams, Plant, PlantState, REFERENCE};
+    use proptest::prelude::*;
+
+    /// The reference with 0–0.3° of backlash and every bench effect drawn: off (0) or on,
+    /// over and beyond its plausible range.
+    fn params() -> impl Strategy<Value = ActuatorParams> {
+        (
+            0.0f64..0.3,
+            prop_oneof![Just(0.0), 1.0f64..4.0],
+            prop_oneof![Just(0.0), 0.0f64..1.0],
+            prop_oneof![Just(0.0), 0.0f64..5.0],
+            prop_oneof![Just(0.0), -1.0f64..1.0],
+            prop_oneof![Just(0.0), -5.0f64..5.0],
+            prop_oneof![Just(0.0), 1e-6f64..1e-2],
+        )
+            .prop_map(|(b, stiction, gravity, db, offset, pickup, lag)| {
+                let mut p = REFERENCE.with_backlash_deg(b);
+                p.effects.stiction_ratio = stiction;
+                p.effects.gravity_torque = gravity;
+                p.effects.drive_deadband = db;
+                p.effects.tach_offset = offset;
+                p.effects.tach_current_coupling = pickup;
+                p.effects.tach_lag = lag;
+                p
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(96))]
+
+        /// Any bench effects, any bounded command: every output stays finite.
+        #[test]
+        fn outputs_stay_finite(p in params(), v in prop::collection::vec(-40.0f32..40.0, 50..300)) {
+            let plant = Plant::new(&p).unwrap();
+            let mut st = PlantState::REST;
+            for &x in &v {
+                let o = plant.step(&mut st, x);
+                prop_assert!(o.tach_voltage_v.is_finite() && o.current_a.is_finite());
+                prop_assert!(o.load_angle_rad.is_finite() && o.mean_current_a.is_finite());
+            }
+        }
+
+        /// Commands within the dead band apply nothing: without gravity the plant stays
+        /// exactly at rest, and the tachometer reads its offset.
+        #[test]
+        fn commands_inside_the_dead_band_move_nothing(
+            p in params(),
+            v in prop::collection::vec(-1.0f32..1.0, 10..200),
+        ) {
+            let mut p = p;
+            p.effects.gravity_torque = 0.0;
+            p.effects.drive_deadband = 1.0;
+            let plant = Plant::new(&p).unwrap();
+            let mut st = PlantState::REST;
+            for &x in &v {
+                let o = plant.step(&mut st, x);
+                prop_assert_eq!(o.applied_voltage_v, 0.0);
+                prop_assert_eq!(o.tach_voltage_v, p.effects.tach_offset as f32);
+            }
+            prop_assert_eq!(st, PlantState::REST);
+        }
+    }
+}
