@@ -24,6 +24,12 @@ pub enum Domain {
     /// A relative gain error, dimensionless: greater than −1 (a gain of zero or below is not
     /// an error of a working sensor).
     GainError,
+    /// A ratio to a quantity it cannot fall below, dimensionless: 0 (off) or at least 1
+    /// (static friction is never below sliding friction).
+    Ratio,
+    /// Either sign, any finite value (an offset, a pickup whose sign follows the wiring); 0
+    /// is off.
+    Signed,
 }
 
 impl Domain {
@@ -37,6 +43,8 @@ impl Domain {
             Domain::GainError => {
                 "must be greater than -1 (a relative gain error of -100 % or worse)"
             }
+            Domain::Ratio => "must be 0 (off) or at least 1",
+            Domain::Signed => "must be a finite number",
         }
     }
 }
@@ -60,6 +68,12 @@ pub struct Scales {
     pub sample_period_s: f64,
     /// Largest commanded voltage magnitude of the record at hand, V.
     pub max_abs_voltage_v: f64,
+    /// Motor torque per applied volt at stall k_t / R_m, N·m/V.
+    pub stall_torque_per_volt: f64,
+    /// No-load tachometer voltage per applied volt k_ts / k_b, V/V.
+    pub tach_per_volt: f64,
+    /// Armature resistance R_m, Ω.
+    pub resistance_ohm: f64,
 }
 
 /// Declares the effects: one line each, `field => Variant, unit, domain, [lo, hi]`, with the
@@ -132,6 +146,14 @@ macro_rules! registry {
                     $(Effect::$variant => ($lo, $hi),)*
                 }
             }
+
+            /// Meaning, unit and file key: the effect's doc comment as one line (each doc line
+            /// keeps its leading space; trim the result).
+            pub const fn meaning(self) -> &'static str {
+                match self {
+                    $(Effect::$variant => concat!($($doc),*),)*
+                }
+            }
         }
 
         impl Effects {
@@ -173,6 +195,21 @@ macro_rules! registry {
 // - voltage_limit 5…50: amplifier saturation of servos on 12…28 V supplies (with margin).
 // - tach_gain −0.2…0.2: tachometer sensitivity tolerance (±10 % on data sheets) plus
 //   temperature drift.
+// - stiction_ratio 1.1…3: breakaway over running torque of small gear motors and plain
+//   bearings (1.2…2 for lubricated steel; up to 3 for dry brushes and seals); below 1.1 the
+//   difference hides under the sliding friction's own uncertainty.
+// - gravity_torque 1e-3…0.5: an unbalanced arm's m g r; 1e-3 is a fifth of the load's
+//   Coulomb friction (5e-3), 0.5 two thirds of the stall torque at the load on a 24 V bus
+//   (N k_t V / R_m = 0.74), beyond which the motor could barely lift it.
+// - drive_deadband 0.05…3: dead time and the transistor and diode drops of an H bridge, from
+//   a MOSFET bridge's few tens of mV to a bipolar L298's ~3 V.
+// - tach_offset −0.3…0.3: ADC and amplifier offsets of a tachometer channel spanning ±12 V
+//   (0.1 % to 2.5 % of full scale).
+// - tach_current_coupling −2…2: a shared return of 0.01…2 Ω between the armature and the
+//   tachometer (bench leads, brushes); either sign, as wired. 2 V/A × 0.3 A (stall current
+//   at 10 V) is 12 % of the no-load tachometer voltage there.
+// - tach_lag 2e-5…5e-3: a tachometer's own armature L/R (tens of µs) up to an RC filter at
+//   30 Hz; 2e-5 is a twenty-fifth of the 0.5 ms period, 5e-3 ten periods.
 registry! {
     /// Viscous friction on the motor shaft, N·m·s/rad (`effects.motor_viscous`).
     motor_viscous => MotorViscous, "N*m*s/rad", NonNegative, [1e-8, 1e-5];
@@ -192,6 +229,25 @@ registry! {
     /// Relative error of the tachometer sensitivity, dimensionless: the tachometer reads
     /// `(1 + tach_gain) k_ts ω_m` (`effects.tach_gain`).
     tach_gain => TachGain, "-", GainError, [-0.2, 0.2];
+    /// Breakaway (static) friction over sliding Coulomb friction, motor and load,
+    /// dimensionless: a stuck body breaks away when its drive exceeds `stiction_ratio` times
+    /// its Coulomb friction and slides against the Coulomb friction; 0 (off) is the same as 1
+    /// (`effects.stiction_ratio`).
+    stiction_ratio => StictionRatio, "-", Ratio, [1.1, 3.0];
+    /// Unbalanced load (arm, pendulum), N·m: the load feels −T sin θ_L, θ_L = 0 where it
+    /// hangs (`effects.gravity_torque`).
+    gravity_torque => GravityTorque, "N*m", NonNegative, [1e-3, 0.5];
+    /// Dead band of the drive, V: it applies 0 while |V| ≤ V_db and V − sign(V) V_db above
+    /// (`effects.drive_deadband`).
+    drive_deadband => DriveDeadband, "V", NonNegative, [0.05, 3.0];
+    /// Constant offset of the tachometer output, V (`effects.tach_offset`).
+    tach_offset => TachOffset, "V", Signed, [-0.3, 0.3];
+    /// Armature current picked up by the tachometer output (ground loop, brushes), V/A:
+    /// V_t += r i (`effects.tach_current_coupling`).
+    tach_current_coupling => TachCurrentCoupling, "V/A", Signed, [-2.0, 2.0];
+    /// Time constant of a first-order low-pass on the tachometer output (filter, tachometer
+    /// armature), s (`effects.tach_lag`).
+    tach_lag => TachLag, "s", NonNegative, [2e-5, 5e-3];
 }
 
 impl Effect {
@@ -211,7 +267,10 @@ impl Effect {
     /// Natural magnitude of the effect on actuator `s` (the scale a calibration's search grid
     /// is built on), in its unit: the back-EMF damping for viscous friction (at the load for
     /// the load's), critical damping of the gear mode for mesh damping, k_eq for the hinge,
-    /// one sample for the delay, the largest command for the limit, 1 for a relative error.
+    /// one sample for the delay and the lag, the largest command for the limit and the dead
+    /// band, 1 for a relative error and the stiction ratio, the stall torque at the load at
+    /// the largest command for gravity, the no-load tachometer voltage there for the offset,
+    /// and for the current pickup the coupling whose pickup at stall equals that voltage.
     pub fn natural_scale(self, s: &Scales) -> f64 {
         let (n, jm_l, jl) = (
             s.n_total,
@@ -225,7 +284,12 @@ impl Effect {
             Effect::HingeStiffness => s.k_eq_nm_per_rad,
             Effect::InputDelay => s.sample_period_s,
             Effect::VoltageLimit => s.max_abs_voltage_v,
-            Effect::TachGain => 1.0,
+            Effect::TachGain | Effect::StictionRatio => 1.0,
+            Effect::GravityTorque => n * s.stall_torque_per_volt * s.max_abs_voltage_v,
+            Effect::DriveDeadband => s.max_abs_voltage_v,
+            Effect::TachOffset => s.tach_per_volt * s.max_abs_voltage_v,
+            Effect::TachCurrentCoupling => s.tach_per_volt * s.resistance_ohm,
+            Effect::TachLag => s.sample_period_s,
         }
     }
 }
@@ -302,10 +366,17 @@ mod tests {
         for e in Effect::ALL {
             let (lo, hi) = e.plausible_range();
             assert!(lo < hi, "{e:?}");
+            let signed = matches!(e.domain(), Domain::GainError | Domain::Signed);
             assert!(
-                lo > 0.0 || e.domain() == Domain::GainError,
+                lo > 0.0 || signed,
                 "{e:?}: a log-uniform prior needs lo > 0"
             );
+            if signed {
+                assert!(lo < 0.0 && hi > 0.0, "{e:?}: a signed prior spans zero");
+            }
+            if e.domain() == Domain::Ratio {
+                assert!(lo >= 1.0, "{e:?}: a ratio's prior starts at 1");
+            }
         }
     }
 

@@ -7,10 +7,15 @@
 //!
 //! ```text
 //! K(s)   = (k + c s)/s                         gear spring (+ mesh damping), torque per speed
-//! Z_L(s) = J_L s + b_L + k_h/s                  load (inertia, viscous, hinge spring)
+//! Z_L(s) = J_L s + b_L + k_g/s                  load (inertia, viscous, spring to ground)
 //! Z_m(s) = J_m s + b_m + K Z_L / (N² (Z_L + K)) motor shaft as the motor sees it
 //! Ωm/V   = k_t e^{−sτ} / ((L s + R) Z_m + k_t k_b)
+//! V_t/V  = (k_ts Ωm/V + r I/V) / (1 + τ_t s)    tachometer (current pickup r, lag τ_t)
 //! ```
+//!
+//! The spring to ground k_g is the hinge spring plus the gravity torque, linearised about
+//! the hanging position (−T sin θ_L ≈ −T θ_L). The drive's dead band, stiction and the
+//! tachometer's offset are not linear and are left out, like Coulomb friction.
 //!
 //! With b = c = k_h = 0 the zero of `Ωm/V` is eq. 17a and the zero of the current `I/V` is
 //! eq. 17b (where `Ωm/T_m` has its pole the back-EMF cancels the applied voltage).
@@ -118,6 +123,10 @@ pub struct LinearModel {
     kh: f64,
     n: f64,
     delay: f64,
+    /// Tachometer current pickup, V/A.
+    r_tach: f64,
+    /// Tachometer lag, s.
+    tau_tach: f64,
     /// Gear stiffness at the load used by this model, N·m/rad.
     pub k_nm_per_rad: f64,
 }
@@ -143,9 +152,11 @@ impl LinearModel {
             bm: e.motor_viscous,
             bl: e.load_viscous,
             c: e.mesh_damping,
-            kh: e.hinge_stiffness,
+            kh: p.ground_stiffness_nm_per_rad(),
             n,
             delay: e.input_delay,
+            r_tach: e.tach_current_coupling,
+            tau_tach: e.tach_lag,
             k_nm_per_rad: k,
         }
     }
@@ -192,8 +203,9 @@ impl LinearModel {
         let current = delay.sub(wm.scale(self.kb)).div(el);
         let wl = drive.mul(k).scale(1.0 / self.n);
         let twist = drive.mul(zl).div(s).scale(1.0 / self.n);
+        let lag = Complex::new(1.0, w * self.tau_tach);
         LinearResponse {
-            tach: wm.scale(self.kts),
+            tach: wm.scale(self.kts).add(current.scale(self.r_tach)).div(lag),
             current,
             motor_speed: wm,
             load_speed: wl,
@@ -216,6 +228,10 @@ impl LinearModel {
         s.load_speed_rad_s = im(r.load_speed);
         s.twist_rad = im(r.twist);
         s.load_angle_rad = im(r.load_angle);
+        if self.tau_tach > 0.0 {
+            // The tachometer filter's own state (offset excluded, as the plant keeps it).
+            s.tach_filter_v = im(r.tach);
+        }
         s
     }
 }

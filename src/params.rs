@@ -336,6 +336,11 @@ impl ActuatorParams {
                 Domain::NonNegative => non_negative(v, key)? >= 0.0,
                 Domain::Delay => non_negative(v, key)? <= crate::plant::MAX_DELAY_STEPS as f64 * h,
                 Domain::GainError => finite(v, key)? > -1.0,
+                Domain::Ratio => {
+                    let r = non_negative(v, key)?;
+                    r == 0.0 || r >= 1.0
+                }
+                Domain::Signed => finite(v, key)?.is_finite(),
             };
             if !in_range {
                 return Err(ParamError::OutOfRange(key));
@@ -374,7 +379,17 @@ impl ActuatorParams {
             load_inertia_kg_m2: self.load.inertia_kg_m2,
             sample_period_s: self.sample_period_s,
             max_abs_voltage_v,
+            stall_torque_per_volt: m.torque_constant_nm_per_a / m.resistance_ohm,
+            tach_per_volt: m.tach_v_s_per_rad / m.back_emf_v_s_per_rad,
+            resistance_ohm: m.resistance_ohm,
         }
+    }
+
+    /// Stiffness from the load to ground about the hanging position, N·m/rad: the hinge
+    /// spring plus the gravity torque (−T sin θ_L ≈ −T θ_L for small angles). What the linear
+    /// analyses use for the load's restoring torque.
+    pub fn ground_stiffness_nm_per_rad(&self) -> f64 {
+        self.effects.hinge_stiffness + self.effects.gravity_torque
     }
 
     /// The same actuator with another total backlash, degrees.

@@ -141,8 +141,8 @@ fn record_rows() -> Vec<Row> {
             "time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.001,1,0\n0.0005,1,0\n",
         ),
         (
-            "non-uniform sampling (beyond 1 %)",
-            "time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.0005,1,0\n0.0011,1,0\n0.0015,1,0\n",
+            "a gap in the time base (samples missing: an interval over 1.5 typical periods)",
+            "time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.0005,1,0\n0.001,1,0\n0.0025,1,0\n0.003,1,0\n",
         ),
         (
             "a row with too few fields",
@@ -220,7 +220,38 @@ fn scenario_rows() -> Vec<Row> {
 fn cli_rows() -> Vec<Row> {
     // A valid query without an answer (a bandwidth never reached) is not bad input: it is in
     // the no-answer catalogue (`crate::no_answer_catalogue`).
-    let cases: [&[&str]; 9] = [
+    // `init`'s figures are checked before anything is written (its output path is never
+    // created here).
+    const INIT: [&str; 9] = [
+        "init",
+        "--output",
+        "never-written.toml",
+        "--no-load-rpm",
+        "100",
+        "--gear-ratio",
+        "100",
+        "--load-inertia",
+        "2e-4",
+    ];
+    let init_neg = [
+        &INIT[..],
+        &["--supply-v", "-12", "--stall-torque-nm", "1.2"],
+    ]
+    .concat();
+    let init_none = [&INIT[..], &["--supply-v", "12"]].concat();
+    let init_mismatch = [
+        &INIT[..],
+        &[
+            "--supply-v",
+            "12",
+            "--stall-torque-nm",
+            "40",
+            "--stall-current-a",
+            "1.6",
+        ],
+    ]
+    .concat();
+    let cases: [&[&str]; 12] = [
         &["frobnicate"],
         &["simulate", "--input", "in.csv"],
         &["bode", "--vpk", "ten"],
@@ -230,6 +261,9 @@ fn cli_rows() -> Vec<Row> {
         &["bode", "--vpk", "nan"],
         &["max-backlash", "--bandwidth-hz", "0", "--vpk", "10"],
         &["diagnose", "--data", "missing.csv"],
+        &init_neg,
+        &init_none,
+        &init_mismatch,
     ];
     cases
         .iter()

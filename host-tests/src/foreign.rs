@@ -281,7 +281,9 @@ pub fn true_unit(draw: u64) -> Result<ActuatorParams, HostError> {
 
 /// A material but physically plausible value of `e` for `draw`, in its unit: motor_viscous
 /// 4–8e-6, load_viscous 0.01–0.03, mesh_damping 0.05–0.12, hinge_stiffness 5–15, input_delay
-/// 0.6–1.2 ms, voltage_limit 6.5–8 V, tach_gain ±(0.06–0.12).
+/// 0.6–1.2 ms, voltage_limit 6.5–8 V, tach_gain ±(0.06–0.12), stiction_ratio 1.5–2.5,
+/// gravity_torque 0.05–0.15, drive_deadband 0.5–1.5 V, tach_offset ±(0.05–0.2) V,
+/// tach_current_coupling ±(0.3–1) V/A, tach_lag 0.3–1 ms.
 pub fn effect_value(e: Effect, draw: u64) -> f64 {
     let mut r = rng(
         draw,
@@ -295,6 +297,12 @@ pub fn effect_value(e: Effect, draw: u64) -> f64 {
         Effect::InputDelay => r.gen_range(0.6e-3..1.2e-3),
         Effect::VoltageLimit => r.gen_range(6.5..8.0),
         Effect::TachGain => off_by(&mut r, 0.06, 0.12) - 1.0,
+        Effect::StictionRatio => r.gen_range(1.5..2.5),
+        Effect::GravityTorque => r.gen_range(0.05..0.15),
+        Effect::DriveDeadband => r.gen_range(0.5..1.5),
+        Effect::TachOffset => off_by(&mut r, 0.05, 0.2) - 1.0,
+        Effect::TachCurrentCoupling => off_by(&mut r, 0.3, 1.0) - 1.0,
+        Effect::TachLag => r.gen_range(0.3e-3..1.0e-3),
     }
 }
 
@@ -319,11 +327,21 @@ pub fn second_mode_of(draw: u64, load_inertia: f64) -> SecondMode {
 /// Whether a fitted value of `e` comes out multiplied by the resistance scale s = R_true /
 /// R_file: with the file's R every mechanical torque is fitted s times too large (the
 /// current is), so inertias, friction, stiffness and the viscous, mesh and hinge effects
-/// scale; the delay, the voltage limit and the tachometer gain do not.
+/// scale, and so does the gravity torque; the delay, the voltage limit, the tachometer
+/// gain, the stiction ratio, the dead band, the tachometer's offset and lag do not, and the
+/// tachometer's current pickup comes out divided by s (the model's current is s times the
+/// true one).
 pub fn scales_with_resistance(e: Effect) -> bool {
     !matches!(
         e,
-        Effect::InputDelay | Effect::VoltageLimit | Effect::TachGain
+        Effect::InputDelay
+            | Effect::VoltageLimit
+            | Effect::TachGain
+            | Effect::StictionRatio
+            | Effect::DriveDeadband
+            | Effect::TachOffset
+            | Effect::TachCurrentCoupling
+            | Effect::TachLag
     )
 }
 

@@ -10,14 +10,20 @@
 //! at the instant the delayed command changes. It shares no code with `geared_servo::plant`;
 //! it reads only the parameter struct and the derived N, k_eq and δ.
 //!
+//! The bench effects are modelled here as their definitions read (INTERFACES.md "Effect
+//! names"), not as the emulator discretises them: the stiction ratio sets the static
+//! friction in the stick/slip decision; gravity is −T sin θL inside every RK stage (no
+//! linearisation); the dead band maps the voltage before the limit; the tachometer's lag is
+//! an eighth state integrated with the rest, its pickup and offset are added at the output.
+//!
 //! Beyond the emulator's physics it can carry a second structural mode
 //! ([`Reference::with_second_mode`]): an inertia joined to the load by a torsional spring and
 //! damper (a fin's bending/torsion mode), which no effect of the library represents.
 
 use geared_servo::{ActuatorParams, ParamError};
 
-/// Number of states: i, θm, ωm, θL, ωL, θ2, ω2.
-const NS: usize = 7;
+/// Number of states: i, θm, ωm, θL, ωL, θ2, ω2, and the tachometer filter's output y.
+const NS: usize = 8;
 
 /// Fine-step reference simulator.
 #[derive(Clone, Debug)]
@@ -31,6 +37,17 @@ pub struct Reference {
     jl: f64,
     tfm: f64,
     tfl: f64,
+    /// Static (breakaway) frictions, N·m.
+    tsm: f64,
+    tsl: f64,
+    /// Gravity torque T, N·m.
+    grav: f64,
+    /// Drive dead band, V.
+    vdb: f64,
+    /// Tachometer pickup (V/A), offset (V) and lag (s).
+    tach_r: f64,
+    tach_off: f64,
+    tach_tau: f64,
     cm: f64,
     cl: f64,
     cmesh: f64,
@@ -51,8 +68,8 @@ pub struct Reference {
     /// Fine steps per sample period.
     pub substeps: usize,
     h: f64,
-    /// State: i (A), θm (rad), ωm (rad/s), θL (rad), ωL (rad/s), θ2 (rad), ω2 (rad/s) (the
-    /// last two stay 0 without a second mode).
+    /// State: i (A), θm (rad), ωm (rad/s), θL (rad), ωL (rad/s), θ2 (rad), ω2 (rad/s) (these
+    /// two stay 0 without a second mode), tachometer filter y (V; stays 0 without a lag).
     pub s: [f64; NS],
     stuck_m: bool,
     stuck_l: bool,
@@ -65,6 +82,12 @@ impl Reference {
     pub fn new(p: &ActuatorParams, fine_step_s: f64) -> Result<Reference, ParamError> {
         let d = p.derived()?;
         let substeps = (p.sample_period_s / fine_step_s).round().max(1.0) as usize;
+        let e = &p.effects;
+        let stiction = if e.stiction_ratio > 0.0 {
+            e.stiction_ratio
+        } else {
+            1.0
+        };
         Ok(Reference {
             r: p.motor.resistance_ohm,
             l: p.motor.inductance_h,
@@ -75,6 +98,13 @@ impl Reference {
             jl: p.load.inertia_kg_m2,
             tfm: p.motor.coulomb_friction_nm,
             tfl: p.load.coulomb_friction_nm,
+            tsm: stiction * p.motor.coulomb_friction_nm,
+            tsl: stiction * p.load.coulomb_friction_nm,
+            grav: e.gravity_torque,
+            vdb: e.drive_deadband,
+            tach_r: e.tach_current_coupling,
+            tach_off: e.tach_offset,
+            tach_tau: e.tach_lag,
             cm: p.effects.motor_viscous,
             cl: p.effects.load_viscous,
             cmesh: p.effects.mesh_damping,
@@ -145,17 +175,34 @@ impl Reference {
         let tl = self.gear_torque(s);
         (
             self.kt * s[0] - tl / self.n - self.cm * s[2],
-            tl - self.cl * s[4] - self.kh * s[3] - self.mode_torque(s),
+            tl - self.cl * s[4] - self.kh * s[3] - self.grav * s[3].sin() - self.mode_torque(s),
         )
     }
 
-    fn coulomb(speed: f64, drive: f64, tf: f64) -> f64 {
+    /// The tachometer circuit's signal k_ts ωm + r i (before its lag), V.
+    fn tach_signal(&self, s: &[f64; NS]) -> f64 {
+        self.kts * s[2] + self.tach_r * s[0]
+    }
+
+    /// Voltage at the winding for command `v`: the dead band, then the limit.
+    fn drive_voltage(&self, v: f64) -> f64 {
+        let v = if v.abs() <= self.vdb {
+            0.0
+        } else {
+            v - self.vdb * v.signum()
+        };
+        v.clamp(-self.vmax, self.vmax)
+    }
+
+    /// Friction torque on a body of speed `speed` whose other torques sum to `drive`:
+    /// holds it (up to the static friction `ts`) at zero speed, −tf sign(speed) sliding.
+    fn coulomb(speed: f64, drive: f64, tf: f64, ts: f64) -> f64 {
         let dir = if speed != 0.0 {
             speed.signum()
         } else {
             drive.signum()
         };
-        if speed == 0.0 && drive.abs() <= tf {
+        if speed == 0.0 && drive.abs() <= ts {
             -drive
         } else {
             -tf * dir
@@ -167,12 +214,12 @@ impl Reference {
         let am = if self.stuck_m {
             0.0
         } else {
-            (dm + Self::coulomb(s[2], dm, self.tfm)) / self.jm
+            (dm + Self::coulomb(s[2], dm, self.tfm, self.tsm)) / self.jm
         };
         let al = if self.stuck_l {
             0.0
         } else {
-            (dl + Self::coulomb(s[4], dl, self.tfl)) / self.jl
+            (dl + Self::coulomb(s[4], dl, self.tfl, self.tsl)) / self.jl
         };
         let a2 = if self.j2 > 0.0 {
             self.mode_torque(s) / self.j2
@@ -187,15 +234,20 @@ impl Reference {
             al,
             s[6],
             a2,
+            if self.tach_tau > 0.0 {
+                (self.tach_signal(s) - s[7]) / self.tach_tau
+            } else {
+                0.0
+            },
         ]
     }
 
     /// One RK4 step of length `h` with the voltage a function of time since `t0` (the
     /// step's start); the voltage is saturated here.
     fn rk4_fn(&mut self, v_of: &dyn Fn(f64) -> f64, t0: f64, h: f64) {
-        let vmax = self.vmax;
-        let v = |t: f64| v_of(t).clamp(-vmax, vmax);
-        self.rk4_with(h, [v(t0), v(t0 + h / 2.0), v(t0 + h)]);
+        let v = |t: f64| self.drive_voltage(v_of(t));
+        let vs = [v(t0), v(t0 + h / 2.0), v(t0 + h)];
+        self.rk4_with(h, vs);
     }
 
     /// One RK4 step of length `h` with the (already saturated) voltage at its start, middle
@@ -221,22 +273,22 @@ impl Reference {
         let (dm, dl) = self.drives(&n);
         if self.stuck_m {
             n[2] = 0.0;
-            if dm.abs() > self.tfm {
+            if dm.abs() > self.tsm {
                 self.stuck_m = false;
             }
         } else if ((s[2] > 0.0 && n[2] <= 0.0) || (s[2] < 0.0 && n[2] >= 0.0))
-            && dm.abs() <= self.tfm
+            && dm.abs() <= self.tsm
         {
             self.stuck_m = true;
             n[2] = 0.0;
         }
         if self.stuck_l {
             n[4] = 0.0;
-            if dl.abs() > self.tfl {
+            if dl.abs() > self.tsl {
                 self.stuck_l = false;
             }
         } else if ((s[4] > 0.0 && n[4] <= 0.0) || (s[4] < 0.0 && n[4] >= 0.0))
-            && dl.abs() <= self.tfl
+            && dl.abs() <= self.tsl
         {
             self.stuck_l = true;
             n[4] = 0.0;
@@ -244,9 +296,10 @@ impl Reference {
         self.s = n;
     }
 
-    /// Holds the (saturated) voltage `v` for `len` s, in fine steps of at most the fine step.
+    /// Holds the command `v` (through the dead band and the limit) for `len` s, in fine
+    /// steps of at most the fine step.
     fn hold(&mut self, v: f64, len: f64, steps: usize) {
-        let v = v.clamp(-self.vmax, self.vmax);
+        let v = self.drive_voltage(v);
         let h = len / steps as f64;
         for _ in 0..steps {
             self.rk4_with(h, [v, v, v]);
@@ -296,7 +349,7 @@ impl Reference {
 
     /// Applies the continuous voltage `v_of(t)` (t in s from the start of this sample
     /// period) for one sample period. The input delay is not applied here: `v_of` is the
-    /// voltage at the terminals (saturated by the voltage limit).
+    /// command at the terminals (through the dead band, saturated by the voltage limit).
     pub fn step_fn(&mut self, v_of: &dyn Fn(f64) -> f64) {
         let h = self.h;
         for j in 0..self.substeps {
@@ -304,9 +357,14 @@ impl Reference {
         }
     }
 
-    /// Tachometer voltage now (with the tachometer gain error), V.
+    /// Tachometer voltage now (gain error, current pickup, lag and offset), V.
     pub fn tach(&self) -> f64 {
-        self.kts * self.s[2]
+        let y = if self.tach_tau > 0.0 {
+            self.s[7]
+        } else {
+            self.tach_signal(&self.s)
+        };
+        y + self.tach_off
     }
 
     /// Armature current now, A.

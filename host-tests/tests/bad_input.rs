@@ -93,10 +93,11 @@ fn fields() -> Vec<(&'static str, Box<Setter>, bool)> {
         ),
         ("backlash.total_deg", |p, v| p.backlash_deg = v, true),
     ];
-    // Every effect but the gain error, whose domain is not "zero or positive".
+    // Every effect but the gain error and the signed ones, whose domains are not "zero or
+    // positive" (a ratio's is, from 1 up).
     let effects = Effect::ALL
         .into_iter()
-        .filter(|e| e.domain() != Domain::GainError)
+        .filter(|e| !matches!(e.domain(), Domain::GainError | Domain::Signed))
         .map(|e| {
             let set = move |p: &mut ActuatorParams, v| p.effects.set(e, v);
             (e.key(), Box::new(set) as Box<Setter>, true)
@@ -226,9 +227,17 @@ fn every_shipped_parameter_file_reads_back_identically_after_writing() {
 #[test]
 fn written_parameter_files_read_back_identically() {
     let mut p = REFERENCE.with_backlash_deg(0.05);
-    // Every effect on, with values that have no short decimal form.
+    // Every effect on, with values that have no short decimal form (a ratio from 1 up).
     for (i, e) in Effect::ALL.into_iter().enumerate() {
-        p.effects.set(e, (i as f64 + 1.0) / 3.0e4);
+        let v = (i as f64 + 1.0) / 3.0e4;
+        p.effects.set(
+            e,
+            if e.domain() == Domain::Ratio {
+                1.0 + v
+            } else {
+                v
+            },
+        );
     }
     p.motor.inertia_kg_m2 = 2.5e-7 * (1.0 + f64::EPSILON);
     assert_eq!(bits(&written_and_read(&p)), bits(&p));
@@ -285,8 +294,9 @@ fn every_written_key_is_the_key_validation_names() {
             checked += 1;
         }
     }
-    // 1 + 7 + 7 + 3 + 7 + 3 + 2 + 1 + 7 geometry-form keys, 1 + 7 + 2 + 2 + 2 + 1 + 7 measured.
-    assert_eq!(checked, 38 + 22);
+    // 1 + 7 + 7 + 3 + 7 + 3 + 2 + 1 geometry-form keys, 1 + 7 + 2 + 2 + 2 + 1 measured, and
+    // every effect in each.
+    assert_eq!(checked, 31 + 15 + 2 * Effect::ALL.len());
 }
 
 fn toml_error(edit: impl Fn(&str) -> String) -> String {
@@ -396,8 +406,8 @@ fn broken_records_name_line_and_column() {
             "line 4, column `time_s`: time 0.0005 does not increase",
         ),
         (
-            "time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.0005,1,0\n0.0011,1,0\n0.0015,1,0\n",
-            "sampling is not uniform",
+            "time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.0005,1,0\n0.001,1,0\n0.0025,1,0\n0.003,1,0\n",
+            "line 5, column `time_s`: a gap of",
         ),
         (
             "# a: b\ntime_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.0005,1\n",

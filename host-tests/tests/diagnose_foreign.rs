@@ -423,7 +423,8 @@ fn the_suite_is_what_the_issue_asks_for() {
     // perturbations, the kinds.
     let file = foreign::file_params();
     assert_eq!(file.backlash_deg, foreign::FILE_BACKLASH_DEG);
-    assert_eq!(Kind::all().len(), 10);
+    // Clean, one per effect, the pair, the out-of-library mode.
+    assert_eq!(Kind::all().len(), Effect::ALL.len() + 3);
     for draw in foreign::SUITE_DRAWS {
         let u = foreign::true_unit(draw).unwrap();
         let f = calibrate::with_measured_stiffness(&file).unwrap();

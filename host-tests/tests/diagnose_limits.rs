@@ -133,9 +133,9 @@ fn each_bad_file_defect_gives_its_error_and_no_panic() {
             "line 4, column `time_s`",
         ),
         (
-            "non_uniform.csv",
-            "time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.0005,1,0\n0.0011,1,0\n0.0015,1,0\n",
-            "not uniform",
+            "time_gap.csv",
+            "time_s,motor_voltage_v,tach_voltage_v\n0,1,0\n0.0005,1,0\n0.001,1,0\n0.0025,1,0\n0.003,1,0\n",
+            "samples are missing",
         ),
         (
             "no_output.csv",

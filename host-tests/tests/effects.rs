@@ -147,14 +147,18 @@ fn tach_gain_scales_the_tachometer_and_nothing_else() {
 }
 
 /// A registry entry without physics fails here: every effect, at a value inside its
-/// plausible range, changes the tachometer output of a square-wave record, and it does so
+/// plausible range, changes the tachometer output of a square-wave or a slow sine record, and
+/// it does so
 /// through the parameter file's key (what `synth --effect` and `[effects]` set).
 #[test]
 fn every_registered_effect_changes_the_output_within_its_plausible_range() {
     let base = REFERENCE.with_backlash_deg(0.08);
-    // 20 V: above the lower half of the voltage-limit range, so a limit there clips.
-    let v = square(20.0, 0.1, 1000, base.sample_period_s);
-    let y0 = emulate(&base, &v);
+    let h = base.sample_period_s;
+    // 20 V: above the lower half of the voltage-limit range, so a limit there clips. And a
+    // slow 1 V sine, whose reversals stick (about 0.5 V overcomes the Coulomb friction), so
+    // that breakaway friction and the dead band show; each record is judged on its own.
+    let records = [square(20.0, 0.1, 1000, h), sine(1.0, 2.0, 2000, h)];
+    let y0: Vec<Vec<f64>> = records.iter().map(|v| emulate(&base, v)).collect();
     for e in Effect::ALL {
         let (lo, hi) = e.plausible_range();
         // The geometric mean of a positive range; the upper end of a signed one.
@@ -165,14 +169,116 @@ fn every_registered_effect_changes_the_output_within_its_plausible_range() {
         );
         let p = params_file::parse(&text, "effect.toml").unwrap();
         assert_eq!(p.effects.get(e), x, "{e}: the file's key sets the effect");
-        let change = relative_rms_error(&emulate(&p, &v), &y0);
+        let change = records
+            .iter()
+            .zip(&y0)
+            .map(|(v, y)| relative_rms_error(&emulate(&p, v), y))
+            .fold(0.0, f64::max);
         eprintln!(
             "{e} = {x:e} {}: output changes by {:.3} %",
             e.unit(),
             100.0 * change
         );
-        // 0.1 %: far above the f32 rounding of a 1000-step run, and well below what any of
+        // 0.1 %: far above the f32 rounding of a 2000-step run, and well below what any of
         // these values does (the smallest change, the delay's, is 2 %).
         assert!(change > 1e-3, "{e} = {x:e}: output changed by {change}");
     }
+}
+
+/// `synth --effect NAME=VALUE` and the parameter file's `[effects]` key make the same record
+/// for every registered effect (both go through the registry), and a value outside an
+/// effect's domain, given either way, is a one-line bad-input error naming the key.
+#[test]
+fn synth_effect_flag_and_the_files_key_agree_for_every_effect() {
+    use clap::Parser;
+    use geared_servo_cli::{run, Cli};
+    use geared_servo_host::error::ErrorKind;
+    let dir = std::env::temp_dir().join(format!("gs-synth-effects-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let base = REFERENCE.with_backlash_deg(0.08);
+    let base_file = dir.join("base.toml");
+    std::fs::write(&base_file, params_file::to_toml(&base, &[]).unwrap()).unwrap();
+    let synth = |params: &std::path::Path, out: &std::path::Path, effect: Option<String>| {
+        let mut args: Vec<String> = [
+            "geared-servo",
+            "--params",
+            params.to_str().unwrap(),
+            "synth",
+            "--output",
+            out.to_str().unwrap(),
+            "--excitation",
+            "square",
+            "--f-min",
+            "5",
+            // Above the lower half of the voltage-limit range (as above).
+            "--amplitude",
+            "20",
+            "--duration",
+            "0.2",
+        ]
+        .map(String::from)
+        .to_vec();
+        if let Some(e) = effect {
+            args.extend(["--effect".to_string(), e]);
+        }
+        run(&Cli::try_parse_from(args).unwrap())
+    };
+    let rows = |path: &std::path::Path| -> Vec<String> {
+        std::fs::read_to_string(path)
+            .unwrap()
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(String::from)
+            .collect()
+    };
+    let plain = dir.join("plain.csv");
+    synth(&base_file, &plain, None).unwrap();
+    for e in Effect::ALL {
+        let (lo, hi) = e.plausible_range();
+        let x = if lo > 0.0 { (lo * hi).sqrt() } else { lo };
+        let (by_flag, by_key) = (dir.join("flag.csv"), dir.join("key.csv"));
+        synth(&base_file, &by_flag, Some(format!("{}={x:e}", e.name()))).unwrap();
+        let mut p = base;
+        p.effects.set(e, x);
+        let file = dir.join("key.toml");
+        std::fs::write(&file, params_file::to_toml(&p, &[]).unwrap()).unwrap();
+        synth(&file, &by_key, None).unwrap();
+        let flag = rows(&by_flag);
+        assert!(flag == rows(&by_key), "{e}: flag and key differ");
+        assert!(flag != rows(&plain), "{e} changes nothing");
+    }
+    // Outside the domain: a ratio below 1, a negative dead band or lag, a NaN offset.
+    for (name, bad) in [
+        ("stiction_ratio", "0.5"),
+        ("drive_deadband", "-1"),
+        ("tach_lag", "-1e-3"),
+        ("gravity_torque", "-0.1"),
+    ] {
+        let err = synth(
+            &base_file,
+            &dir.join("x.csv"),
+            Some(format!("{name}={bad}")),
+        )
+        .err()
+        .unwrap_or_else(|| panic!("{name}={bad} accepted"));
+        assert_eq!(err.kind, ErrorKind::BadInput, "{name}");
+        assert!(
+            err.message.contains(&format!("effects.{name}")) && !err.message.contains('\n'),
+            "{}",
+            err.message
+        );
+        let text = params_file::to_toml(&base, &[])
+            .unwrap()
+            .replace(&format!("{name} = 0e0"), &format!("{name} = {bad}"));
+        let err = params_file::parse(&text, "bench.toml").unwrap_err();
+        assert_eq!(err.kind, ErrorKind::BadInput);
+        assert!(
+            err.message
+                .starts_with(&format!("bench.toml: key `effects.{name}` must")),
+            "{}",
+            err.message
+        );
+        eprintln!("{name} = {bad}: {}", err.message);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

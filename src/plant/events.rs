@@ -29,11 +29,11 @@ impl Plant {
         let s1 = Self::advance(set, m, f, s0, inp);
         let motor_event = match m.motor {
             Motion::Slip(sg) => sg * s1[WM] <= 0.0,
-            Motion::Stuck => abs(self.motor_drive(c, &s1)) > c.tf_m,
+            Motion::Stuck => abs(self.motor_drive(c, &s1)) > c.ts_m,
         };
         let load_event = match m.load {
             Motion::Slip(sg) => sg * s1[WL] <= 0.0,
-            Motion::Stuck => !c.jammed && abs(self.load_drive(c, &s1)) > c.tf_l,
+            Motion::Stuck => !c.jammed && abs(self.load_drive(c, &s1)) > c.ts_l,
         };
         if self.gear_of(c, s1[X]) == m.gear && !motor_event && !load_event {
             return (s1, false);
@@ -120,7 +120,8 @@ impl Plant {
                     let t1 = self.motor_drive(c, &s1);
                     let t_star = t0 + alpha * (t1 - t0);
                     let w = s1[WM];
-                    if abs(t_star) <= c.tf_m {
+                    // Sticks where static friction holds the drive at zero speed.
+                    if abs(t_star) <= c.ts_m {
                         s1[X] -= w * tau * 0.5 / self.n;
                         s1[WM] = 0.0;
                     } else {
@@ -138,7 +139,7 @@ impl Plant {
             }
             Motion::Stuck => {
                 let t1 = self.motor_drive(c, &s1);
-                if abs(t1) > c.tf_m {
+                if abs(t1) > c.ts_m {
                     let dw = self.motor_breakaway(c, s0, &s1, t1, v, hs);
                     s1[WM] = dw.0;
                     s1[X] += dw.1 / self.n;
@@ -155,7 +156,7 @@ impl Plant {
                     let t1 = self.load_drive(c, &s1);
                     let t_star = t0 + alpha * (t1 - t0);
                     let w = s1[WL];
-                    if abs(t_star) <= c.tf_l {
+                    if abs(t_star) <= c.ts_l {
                         s1[X] += w * tau * 0.5;
                         s1[TH] -= w * tau * 0.5;
                         s1[WL] = 0.0;
@@ -176,16 +177,23 @@ impl Plant {
             }
             Motion::Stuck => {
                 let t1 = self.load_drive(c, &s1);
-                if !c.jammed && abs(t1) > c.tf_l {
+                if !c.jammed && abs(t1) > c.ts_l {
                     let sg = if t1 > 0.0 { 1.0 } else { -1.0 };
                     let t0 = self.load_drive(c, s0);
-                    let alpha = fraction(c.tf_l - sg * t0, sg * (t1 - t0));
+                    let alpha = fraction(c.ts_l - sg * t0, sg * (t1 - t0));
                     let tau = (1.0 - alpha) * hs;
-                    // Net torque grows linearly from 0 at breakaway to |t1| − T_f.
-                    let dw = sg * (sg * t1 - c.tf_l) * tau * 0.5 / self.jl;
+                    // Net torque grows linearly from T_s − T_f at breakaway (0 without
+                    // stiction) to |t1| − T_f: Δω is its mean times τ, Δθ its double
+                    // integral, τ² (2 (T_s − T_f) + |t1| − T_f) / (6 J_L).
+                    let jump = c.ts_l - c.tf_l;
+                    let dw = sg * ((sg * t1 - c.tf_l) + jump) * tau * 0.5 / self.jl;
+                    let mut dth = dw * tau * (1.0 / 3.0);
+                    if jump > 0.0 {
+                        dth += sg * jump * tau * tau * (1.0 / 6.0) / self.jl;
+                    }
                     s1[WL] = dw;
-                    s1[X] -= dw * tau * (1.0 / 3.0);
-                    s1[TH] += dw * tau * (1.0 / 3.0);
+                    s1[X] -= dth;
+                    s1[TH] += dth;
                 }
             }
         }
@@ -235,15 +243,18 @@ impl Plant {
         // σ·drive(t) = a + b e^{−t/τe}
         let a = sg * (self.kt * i_inf - tl_mean / self.n);
         let b = sg * self.kt * (s0[I] - i_inf);
-        let excess_end = sg * t1 - c.tf_m;
+        // Net torque past breakaway: the drive less the sliding friction, which starts at
+        // T_s − T_f (0 without stiction) where the drive reaches the static friction T_s.
+        let jump = c.ts_m - c.tf_m;
+        let excess_end = (sg * t1 - c.tf_m) + jump;
         let (t_star, e_star) = {
-            let r = (c.tf_m - a) / b;
-            if b != 0.0 && r > 0.0 && r < 1.0 && a > c.tf_m {
+            let r = (c.ts_m - a) / b;
+            if b != 0.0 && r > 0.0 && r < 1.0 && a > c.ts_m {
                 (-self.tau_e * math::ln(r), r)
             } else {
                 // Not driven by the current's rise (the gear torque grew): linear.
                 let t0 = sg * self.motor_drive(c, s0);
-                let alpha = fraction(c.tf_m - t0, sg * t1 - t0);
+                let alpha = fraction(c.ts_m - t0, sg * t1 - t0);
                 let t = alpha * hs;
                 (t, math::exp(-t / self.tau_e))
             }
@@ -252,7 +263,7 @@ impl Plant {
         if tau.is_nan() || tau <= 0.0 {
             return (0.0, 0.0);
         }
-        let impulse = if b != 0.0 && a > c.tf_m {
+        let impulse = if b != 0.0 && a > c.ts_m {
             (a - c.tf_m) * tau + b * self.tau_e * (e_star - self.sub.decay)
         } else {
             excess_end * tau * 0.5

@@ -48,7 +48,7 @@ impl Plant {
     /// clamped to their physical range (NaN to "no fault"), so no input makes the step fail.
     #[inline(always)]
     pub(super) fn context(&self, f: &PlantFaults, s: &Vec5) -> Ctx {
-        let mut c = self.nominal();
+        let mut c = self.nominal_at(s);
         if *f == PlantFaults::NONE {
             return c;
         }
@@ -58,12 +58,16 @@ impl Plant {
         let ff = sane(f.friction_factor, 1.0, 0.0, MAX_FRICTION_FACTOR);
         c.tf_m *= ff;
         c.tf_l *= ff;
-        c.t_load = sane(
+        c.ts_m *= ff;
+        c.ts_l *= ff;
+        let load = sane(
             f.load_torque_nm,
             0.0,
             -MAX_LOAD_TORQUE_NM,
             MAX_LOAD_TORQUE_NM,
         );
+        // With gravity, its held remainder (`nominal_at`) is already there.
+        c.t_load = if c.ext { c.t_load + load } else { load };
         c.ext = true;
         c.jammed = match f.jam {
             Jam::None => false,

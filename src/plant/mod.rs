@@ -8,10 +8,28 @@
 //! ```text
 //! L di/dt   = V − R i − k_b ωm
 //! J_m dωm/dt = k_t i − T_L/N − c_m ωm − T_fm sgn ωm
-//! J_L dωL/dt = T_L − c_L ωL − k_h θL − T_fL sgn ωL
+//! J_L dωL/dt = T_L − c_L ωL − k_h θL − T sin θL − T_fL sgn ωL
 //! dx/dt = ωm/N − ωL,  dθL/dt = ωL
 //! T_L = k_eq (x ∓ δ) + c_mesh ẋ  while |x| > δ (in contact), 0 inside the gap
+//! V   = db(command) limited to ±voltage_limit, db(u) = 0 for |u| ≤ V_db, u ∓ V_db beyond
 //! ```
+//!
+//! A body at rest stays stuck while its drive is within its static friction
+//! `stiction_ratio · T_f` (T_f without stiction) and slides against T_f once it breaks
+//! away. The tachometer (gain, pickup, lag, offset) is the measurement model of `tach`.
+//!
+//! # The bench effects, and why each stays exact or second order
+//! - **Dead band**: a map of the command before the limit, like the limit itself; the
+//!   voltage stays held over the step, so the exact transitions apply unchanged.
+//! - **Stiction**: only the thresholds change. Sticking and breakaway are decided against
+//!   the static friction (`Ctx::ts_m`, `ts_l`); the located breakaway then starts with the
+//!   net torque T_s − T_f instead of 0, which the impulse correction integrates exactly for
+//!   the linear rise it already assumes (`events`). With the ratio at 0 or 1 every value is
+//!   bit for bit what it was.
+//! - **Gravity**: −T sin θL is not linear in the state. Its linear part about the hanging
+//!   position, −T θL, joins the hinge spring in the exact transitions (so small swings are
+//!   exact), and the remainder T (θL − sin θL) is held over each step at its value at the
+//!   predicted mid-step angle (`Plant::nominal_at`), second order in a slow torque.
 //!
 //! # Scheme, and why
 //! Between events the system is linear with constant forcing in each *mode* (gears in contact
@@ -46,6 +64,7 @@ mod faulty;
 mod modes;
 mod sine;
 mod step;
+mod tach;
 
 pub use sine::SineDrive;
 
@@ -58,6 +77,7 @@ use modes::{
     continuous, mode_set, sub_step_plan, to_f32, transition, ModeSet, Vec5, COL_V, MODE_FLAGS,
 };
 use step::Ctx;
+use tach::Tach;
 
 /// Fewest sub-steps a step with an event is split into.
 pub const MIN_SUB_STEPS: usize = 8;
@@ -106,6 +126,9 @@ pub struct PlantState {
     pub load_angle_rad: f32,
     /// Commanded voltages of the last steps (ring buffer), V; used by `input_delay`.
     history: [f32; HISTORY],
+    /// The tachometer filter's output without the offset, V; used by `tach_lag` (see
+    /// `plant::tach`). 0 at rest, where the filter's input is 0.
+    pub(crate) tach_filter_v: f32,
     /// Index of the newest command in `history`.
     head: u8,
 }
@@ -120,6 +143,7 @@ impl PlantState {
         load_angle_rad: 0.0,
         history: [0.0; HISTORY],
         head: 0,
+        tach_filter_v: 0.0,
     };
 
     /// At rest with the load at `load_angle_rad` and the twist at `twist_rad` (both rad).
@@ -159,7 +183,9 @@ impl Default for PlantState {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Outputs {
-    /// Tachometer voltage V_t = (1 + tach_gain) k_ts ωm, V.
+    /// Tachometer voltage, V: (1 + tach_gain) k_ts ωm, plus the current pickup
+    /// `tach_current_coupling · i`, through the `tach_lag` filter, plus `tach_offset` (the
+    /// tachometer's measurement model, `plant::tach`).
     pub tach_voltage_v: f32,
     /// Motor speed ωm, rad/s.
     pub motor_speed_rad_s: f32,
@@ -214,12 +240,27 @@ pub struct Plant {
     inv_rh: f32,
     k: f32,
     c_mesh: f32,
+    /// Hinge spring, N·m/rad (for the stored energy).
     k_hinge: f32,
+    /// Spring from the load to ground in the modes: hinge plus gravity's linear part T,
+    /// N·m/rad.
+    k_ground: f32,
+    /// `effects.gravity_torque` T, N·m (0: off).
+    gravity: f32,
     delta: f32,
     tf_m: f32,
     tf_l: f32,
-    tach: f32,
+    /// Breakaway (static) friction, N·m: `stiction_ratio` times the Coulomb friction, or the
+    /// Coulomb friction itself when the ratio is 0 (off).
+    ts_m: f32,
+    ts_l: f32,
+    tach: Tach,
     v_max: f32,
+    /// `effects.drive_deadband`, V (0: off).
+    v_db: f32,
+    /// An input delay or a bench effect is on (stiction, gravity, dead band, tachometer
+    /// offset, pickup or lag): [`Plant::step`] takes its general instance.
+    general: bool,
     tau_e: f32,
     /// Sub-steps per step when a step is redone (see [`MIN_SUB_STEPS`]).
     sub_steps: u16,
@@ -266,6 +307,13 @@ impl Plant {
         }
 
         let m = &params.motor;
+        let tach = Tach::new(params, h)?;
+        // Static over sliding friction; 0 (off) is the same as 1, exactly.
+        let stiction = if params.effects.stiction_ratio > 0.0 {
+            params.effects.stiction_ratio
+        } else {
+            1.0
+        };
         let v_max = if params.effects.voltage_limit > 0.0 {
             to_f32(params.effects.voltage_limit, Effect::VoltageLimit.key())?.min(MAX_ABS_VOLTAGE_V)
         } else {
@@ -289,14 +337,31 @@ impl Plant {
             k: to_f32(d.k_eq_nm_per_rad, "stiffness.k2_nm_per_rad")?,
             c_mesh: to_f32(params.effects.mesh_damping, Effect::MeshDamping.key())?,
             k_hinge: to_f32(params.effects.hinge_stiffness, Effect::HingeStiffness.key())?,
+            k_ground: to_f32(
+                params.ground_stiffness_nm_per_rad(),
+                Effect::HingeStiffness.key(),
+            )?,
+            gravity: to_f32(params.effects.gravity_torque, Effect::GravityTorque.key())?,
             delta: d.delta_rad as f32,
             tf_m: to_f32(m.coulomb_friction_nm, "motor.coulomb_friction_nm")?,
             tf_l: to_f32(params.load.coulomb_friction_nm, "load.coulomb_friction_nm")?,
-            tach: to_f32(
-                m.tach_v_s_per_rad * (1.0 + params.effects.tach_gain),
-                Effect::TachGain.key(),
+            ts_m: to_f32(
+                m.coulomb_friction_nm * stiction,
+                Effect::StictionRatio.key(),
             )?,
+            ts_l: to_f32(
+                params.load.coulomb_friction_nm * stiction,
+                Effect::StictionRatio.key(),
+            )?,
+            tach,
             v_max,
+            v_db: to_f32(params.effects.drive_deadband, Effect::DriveDeadband.key())?,
+            general: whole > 0.0
+                || frac > 0.0
+                || stiction > 1.0
+                || params.effects.gravity_torque != 0.0
+                || params.effects.drive_deadband > 0.0
+                || tach.extra(),
             tau_e: to_f32(m.inductance_h / m.resistance_ohm, "motor.inductance_h")?,
             sub_steps: sub_steps as u16,
             always_sub,
@@ -332,9 +397,41 @@ impl Plant {
     /// outputs without a copy through memory (measured: 408 → 392 instructions per step on
     /// the Cortex-M4F, 22–25 → 19–20 ns on the host; the rare sub-stepped path stays out of
     /// line).
+    ///
+    /// The input delay and the bench effects (stiction, gravity, dead band, the
+    /// tachometer's offset, pickup and lag) run in a second, out-of-line instance of the
+    /// step, the general one; a plant with none of them takes the inlined plain instance,
+    /// where every test of them folds away. The one test of the flag replaces the delay's
+    /// own tests (measured on the Cortex-M4F, docs/cost.md: testing the bench effects in
+    /// the step cost 73 instructions per step, a flag for them alone 17).
     #[inline(always)]
     pub fn step(&self, state: &mut PlantState, voltage_v: f32) -> Outputs {
-        self.step_in(state, voltage_v, None)
+        if self.general {
+            self.step_general(state, voltage_v)
+        } else {
+            self.step_in::<false>(state, voltage_v, None)
+        }
+    }
+
+    /// The general instance of the step (see [`Plant::step`]); cold, so that the branch to
+    /// it costs the plain instance no saved registers. Without faults (a separate function
+    /// from the faulty one, so that every fault test folds away here too).
+    #[cold]
+    #[inline(never)]
+    fn step_general(&self, state: &mut PlantState, voltage_v: f32) -> Outputs {
+        self.step_in::<true>(state, voltage_v, None)
+    }
+
+    /// The general instance with faults ([`Plant::step_with_faults`]).
+    #[cold]
+    #[inline(never)]
+    fn step_general_faulty(
+        &self,
+        state: &mut PlantState,
+        voltage_v: f32,
+        faults: &PlantFaults,
+    ) -> Outputs {
+        self.step_in::<true>(state, voltage_v, Some(faults))
     }
 
     /// [`Plant::step`] with run-time faults of the mechanics and the winding (see
@@ -349,13 +446,19 @@ impl Plant {
         voltage_v: f32,
         faults: &PlantFaults,
     ) -> Outputs {
-        self.step_in(state, voltage_v, Some(faults))
+        if self.general {
+            self.step_general_faulty(state, voltage_v, faults)
+        } else {
+            self.step_in::<false>(state, voltage_v, Some(faults))
+        }
     }
 
     /// The step. `None` (no fault) is known at compile time in [`Plant::step`], so every
-    /// fault check folds away there.
+    /// fault check folds away there; so does every test of the input delay and of the bench
+    /// effects when `GENERAL` is false (the plant has none: `self.general`). With `GENERAL`
+    /// true and all of them off, the values are the same.
     #[inline(always)]
-    fn step_in(
+    fn step_in<const GENERAL: bool>(
         &self,
         state: &mut PlantState,
         voltage_v: f32,
@@ -363,8 +466,12 @@ impl Plant {
     ) -> Outputs {
         let nominal = faults.is_none_or(|f| *f == PlantFaults::NONE);
         let faults = faults.unwrap_or(&PlantFaults::NONE);
-        let cmd = self.saturate(voltage_v);
-        let (mut v_early, mut v_late) = if self.has_delay {
+        let cmd = self.saturate(if GENERAL && self.v_db > 0.0 {
+            self.dead_band(voltage_v)
+        } else {
+            voltage_v
+        });
+        let (mut v_early, mut v_late) = if GENERAL && self.has_delay {
             self.delayed(state, cmd)
         } else {
             (cmd, cmd)
@@ -381,7 +488,11 @@ impl Plant {
             s0[WL] = 0.0;
         }
         let c = if nominal {
-            self.nominal()
+            if GENERAL {
+                self.general_ctx(&s0)
+            } else {
+                self.plain()
+            }
         } else {
             self.context(faults, &s0)
         };
@@ -389,7 +500,7 @@ impl Plant {
             let v = self.open_voltage(&c, &s0);
             (v_early, v_late) = (v, v);
         }
-        let (mut s1, gear) = self.advance_step(&c, &s0, v_early, v_late);
+        let (mut s1, gear) = self.advance_step::<GENERAL>(&c, &s0, v_early, v_late);
         if faults.winding == Winding::Open {
             s1[I] = 0.0;
         }
@@ -410,7 +521,7 @@ impl Plant {
         }
         state.set(&s1);
         // Without a delay both parts are the command, and this mean is exactly it.
-        let v_mean = if self.has_delay {
+        let v_mean = if GENERAL && self.has_delay {
             v_early * self.delay_frac + v_late * (1.0 - self.delay_frac)
         } else {
             v_late
@@ -423,14 +534,32 @@ impl Plant {
             let c_end = self.context(faults, &s1);
             (c_end, self.gear_of(&c_end, s1[X]))
         };
-        let mut out = self.outputs_gear(&c_end, state, gear);
-        out.applied_voltage_v = v_late;
-        out.mean_current_a = if faults.winding == Winding::Open {
+        let mean_current = if faults.winding == Winding::Open {
             0.0
         } else {
             self.mean_current(&s0, &s1, v_mean)
         };
+        if GENERAL && self.tach.lagged() {
+            self.sense(state, &s0, &s1, mean_current);
+        }
+        let mut out = self.outputs_gear::<GENERAL>(&c_end, state, gear);
+        out.applied_voltage_v = v_late;
+        out.mean_current_a = mean_current;
         out
+    }
+
+    /// Advances the tachometer's filter over the step from `s0` to `s1` (the state is
+    /// already at `s1`), whose mean current was `mean_current` (A).
+    #[inline(never)]
+    fn sense(&self, state: &mut PlantState, s0: &Vec5, s1: &Vec5, mean_current: f32) {
+        let mean_speed = self.n * ((s1[X] - s0[X]) + (s1[TH] - s0[TH])) / self.h;
+        state.tach_filter_v = self.tach.advance(
+            state.tach_filter_v,
+            (s0[WM], s0[I]),
+            (s1[WM], s1[I]),
+            mean_speed,
+            mean_current,
+        );
     }
 
     /// Applies the continuous voltage `amplitude_v · sin(phase_rad + ω τ)` over one step
@@ -451,14 +580,15 @@ impl Plant {
         let (sn, cs) = math::sin_cos(phase_rad - drive.delay_phase);
         let (a_cos, a_sin) = (amplitude_v * sn, amplitude_v * cs);
         let v_mid = a_cos * drive.half_full[0] + a_sin * drive.half_full[1];
-        // Non-finite amplitude or phase, or a sine beyond the limit: the held path handles it
-        // (NaN as 0 V, saturation).
-        let usable = v_mid.is_finite() && abs(amplitude_v) <= self.v_max;
+        // Non-finite amplitude or phase, a sine beyond the limit, or through the drive's dead
+        // band (then not a sine at the winding): the held path handles it (NaN as 0 V,
+        // saturation, dead band).
+        let usable = v_mid.is_finite() && abs(amplitude_v) <= self.v_max && self.v_db == 0.0;
         if !usable {
             return self.step(state, v_mid);
         }
         let s0 = state.vec();
-        let s1 = self.advance_step_sine(&self.nominal(), &s0, drive, a_cos, a_sin);
+        let s1 = self.advance_step_sine(&self.nominal_at(&s0), &s0, drive, a_cos, a_sin);
         state.set(&s1);
         // Exact mean of the sine over the step.
         let [c1, s1r] = drive.rot_full;
@@ -467,9 +597,13 @@ impl Plant {
         } else {
             a_cos
         };
+        let mean_current = self.mean_current(&s0, &s1, v_mean);
+        if self.tach.lagged() {
+            self.sense(state, &s0, &s1, mean_current);
+        }
         let mut out = self.outputs(state);
         out.applied_voltage_v = v_mid;
-        out.mean_current_a = self.mean_current(&s0, &s1, v_mean);
+        out.mean_current_a = mean_current;
         out
     }
 
@@ -486,12 +620,13 @@ impl Plant {
 
     #[inline(always)]
     fn outputs_in(&self, c: &Ctx, state: &PlantState) -> Outputs {
-        self.outputs_gear(c, state, self.gear_of(c, state.twist_rad))
+        self.outputs_gear::<true>(c, state, self.gear_of(c, state.twist_rad))
     }
 
-    /// Outputs of `state` whose gear contact (`gear_of`) is `gear`.
+    /// Outputs of `state` whose gear contact (`gear_of`) is `gear`; without `GENERAL` the
+    /// tachometer is its sensitivity times the speed (the plant has no bench effect).
     #[inline(always)]
-    fn outputs_gear(&self, c: &Ctx, state: &PlantState, gear: i8) -> Outputs {
+    fn outputs_gear<const GENERAL: bool>(&self, c: &Ctx, state: &PlantState, gear: i8) -> Outputs {
         let s = state.vec();
         let applied = state
             .history
@@ -504,7 +639,11 @@ impl Plant {
             transmitted -= c.lost;
         }
         Outputs {
-            tach_voltage_v: self.tach * s[WM],
+            tach_voltage_v: if GENERAL {
+                self.tach.read(state.tach_filter_v, s[WM], s[I])
+            } else {
+                self.tach.plain(s[WM])
+            },
             motor_speed_rad_s: s[WM],
             motor_angle_rad: self.n * (s[X] + s[TH]),
             load_speed_rad_s: s[WL],
@@ -517,7 +656,8 @@ impl Plant {
         }
     }
 
-    /// Energy stored in the winding, the inertias, the gear spring and the hinge spring, J.
+    /// Energy stored in the winding, the inertias, the gear spring, the hinge spring and
+    /// the unbalanced load (T (1 − cos θL), zero where it hangs), J.
     pub fn stored_energy_j(&self, state: &PlantState) -> f64 {
         let s = state.vec().map(f64::from);
         let delta = f64::from(self.delta);
@@ -533,8 +673,10 @@ impl Plant {
             + f64::from(self.jl) * s[WL] * s[WL]
             + f64::from(self.k) * dz * dz
             + f64::from(self.k_hinge) * s[TH] * s[TH])
+            + f64::from(self.gravity) * (1.0 - libm::cos(s[TH]))
     }
 
+    /// The voltage the drive applies for a command `v` (after the dead band): limited.
     #[inline(always)]
     fn saturate(&self, v: f32) -> f32 {
         if abs(v) <= self.v_max {
@@ -546,6 +688,21 @@ impl Plant {
         } else {
             // NaN
             0.0
+        }
+    }
+
+    /// `effects.drive_deadband`: 0 while |v| ≤ V_db, v − sign(v) V_db beyond (continuous at
+    /// ±V_db). NaN stays NaN (and reads 0 V after the limit).
+    #[inline(never)]
+    fn dead_band(&self, v: f32) -> f32 {
+        if abs(v) <= self.v_db {
+            0.0
+        } else if v > 0.0 {
+            v - self.v_db
+        } else if v < 0.0 {
+            v + self.v_db
+        } else {
+            v
         }
     }
 
@@ -612,6 +769,43 @@ mod tests {
                 let o = p.step(&mut s, v);
                 assert!(o.tach_voltage_v.is_finite() && o.current_a.is_finite());
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod general_instance_tests {
+    use super::*;
+    use crate::params::REFERENCE;
+
+    /// The step's general instance without delay or bench effects computes what the plain
+    /// instance computes, bit for bit (so switching instances by the flag changes nothing
+    /// but speed): backlash, friction, mesh damping, events and a fault.
+    #[test]
+    fn general_instance_without_its_effects_is_the_plain_step() {
+        let mut p = REFERENCE.with_backlash_deg(0.08);
+        p.effects.mesh_damping = 0.01;
+        let plain = Plant::new(&p).unwrap();
+        assert!(!plain.general);
+        let mut bench = plain.clone();
+        bench.general = true;
+        let faults = PlantFaults {
+            load_torque_nm: 0.02,
+            ..PlantFaults::NONE
+        };
+        let (mut a, mut b) = (PlantState::REST, PlantState::REST);
+        for k in 0..3000u32 {
+            let v = if (k / 150) % 2 == 0 { 9.0 } else { -7.5 } + 0.3 * (k % 7) as f32;
+            let (oa, ob) = if k % 500 < 250 {
+                (plain.step(&mut a, v), bench.step(&mut b, v))
+            } else {
+                (
+                    plain.step_with_faults(&mut a, v, &faults),
+                    bench.step_with_faults(&mut b, v, &faults),
+                )
+            };
+            assert_eq!(oa, ob, "step {k}");
+            assert_eq!(a, b, "step {k}");
         }
     }
 }

@@ -19,12 +19,13 @@ pub(super) const WHOLE_STEP_PERIOD_FRACTION: f64 = 0.15;
 /// Sub-steps per step for these parameters, and whether every step must be sub-stepped.
 ///
 /// The fastest mechanical frequency is that of the gears in contact with both bodies free,
-/// stiffened by the hinge spring: `√(k (1/J_L + 1/(N² J_m)) + k_h/J_L) / 2π` (eq. 17b with
-/// the hinge). The reference actuator at 0.5 ms gets 8 sub-steps and the whole-step path.
+/// stiffened by the spring to ground (hinge and linearised gravity, `k_g`):
+/// `√(k (1/J_L + 1/(N² J_m)) + k_g/J_L) / 2π` (eq. 17b with the hinge). The reference
+/// actuator at 0.5 ms gets 8 sub-steps and the whole-step path.
 pub(super) fn sub_step_plan(p: &ActuatorParams, n: f64, k: f64) -> (usize, bool) {
     let jm = p.motor.inertia_kg_m2;
     let jl = p.load.inertia_kg_m2;
-    let w2 = k * (1.0 / jl + 1.0 / (n * n * jm)) + p.effects.hinge_stiffness / jl;
+    let w2 = k * (1.0 / jl + 1.0 / (n * n * jm)) + p.ground_stiffness_nm_per_rad() / jl;
     let f_max = libm::sqrt(w2) / (2.0 * core::f64::consts::PI);
     let periods = p.sample_period_s * f_max;
     let wanted = libm::ceil(periods / SUB_STEP_PERIOD_FRACTION);
@@ -320,7 +321,9 @@ pub(super) fn continuous(
     }
     if load_free {
         a[WL][WL] = -e.load_viscous / jl;
-        a[WL][TH] = -e.hinge_stiffness / jl;
+        // The hinge spring and gravity's linear part −T θ_L (the rest of −T sin θ_L is a
+        // torque held over the step: `Plant::nominal_at`).
+        a[WL][TH] = -p.ground_stiffness_nm_per_rad() / jl;
         a[X][WL] = -1.0;
         a[TH][WL] = 1.0;
         if contact {

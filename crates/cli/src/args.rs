@@ -127,6 +127,9 @@ pub enum Command {
         #[arg(long, value_name = "LIB.so")]
         library: Option<PathBuf>,
     },
+    /// A parameter file from a gear motor's data sheet (figures at the output shaft); what
+    /// a data sheet does not give is marked GUESS for `diagnose` to calibrate.
+    Init(InitArgs),
 }
 
 /// How the sine reaches the winding (`--hold`).
@@ -226,6 +229,45 @@ pub struct DiagnoseArgs {
     /// `motor.inertia_kg_m2,load.inertia_kg_m2,motor.resistance_ohm`).
     #[arg(long, value_delimiter = ',')]
     pub fit: Option<Vec<String>>,
+}
+
+/// Arguments of `geared-servo init` (docs/datasheet.md). Figures of the gear motor at its
+/// output shaft, on the supply voltage.
+#[derive(clap::Args, Debug, Clone)]
+pub struct InitArgs {
+    /// Parameter file to write (TOML).
+    #[arg(long, value_name = "RIG.toml")]
+    pub output: std::path::PathBuf,
+    /// Supply voltage the figures are given at, V.
+    #[arg(long, value_name = "V", allow_negative_numbers = true)]
+    pub supply_v: f64,
+    /// No-load speed at the output shaft, rpm.
+    #[arg(long, value_name = "RPM", allow_negative_numbers = true)]
+    pub no_load_rpm: f64,
+    /// Stall torque at the output shaft, N*m (this, the stall current, or both).
+    #[arg(long, value_name = "N*m", allow_negative_numbers = true)]
+    pub stall_torque_nm: Option<f64>,
+    /// Stall current, A.
+    #[arg(long, value_name = "A", allow_negative_numbers = true)]
+    pub stall_current_a: Option<f64>,
+    /// No-load current, A (sets the motor's friction; a guess otherwise).
+    #[arg(long, value_name = "A", allow_negative_numbers = true)]
+    pub no_load_current_a: Option<f64>,
+    /// Gear ratio (motor turns per output turn).
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    pub gear_ratio: f64,
+    /// Load inertia at the output shaft, kg*m^2 (a rough figure does).
+    #[arg(long, value_name = "KG_M2", allow_negative_numbers = true)]
+    pub load_inertia: f64,
+    /// Rotor inertia, kg*m^2 (a guess otherwise).
+    #[arg(long, value_name = "KG_M2", allow_negative_numbers = true)]
+    pub motor_inertia: Option<f64>,
+    /// Armature inductance, H (a guess otherwise).
+    #[arg(long, value_name = "H", allow_negative_numbers = true)]
+    pub inductance_h: Option<f64>,
+    /// Emulator step, s.
+    #[arg(long, default_value_t = 0.0005, allow_negative_numbers = true)]
+    pub sample_period: f64,
 }
 
 /// `--excitation` takes the names the host library defines, listed in `--help`.

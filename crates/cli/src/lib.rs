@@ -11,6 +11,7 @@ pub mod common;
 pub mod diagnose;
 pub mod fmu;
 pub mod frequency;
+pub mod init;
 pub mod paper;
 pub mod progress;
 pub mod synth;
@@ -67,5 +68,6 @@ pub fn run(cli: &Cli) -> Result<Report, HostError> {
         Command::Synth(a) => crate::synth::run(cli, a),
         Command::Diagnose(a) => crate::diagnose::run(cli, a),
         Command::Fmu { out, library } => crate::fmu::run(cli, out, library.as_deref()),
+        Command::Init(a) => crate::init::run(a),
     }
 }

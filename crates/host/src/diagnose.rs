@@ -319,6 +319,9 @@ fn held_out(without: &Fit, with: &Fit, data: &[Data]) -> (f64, f64) {
 
 /// Grid of values tried for `effect` (whose knob is `k`) in the one-dimensional score.
 fn grid(p: &ActuatorParams, effect: Effect, k: &Knob, max_abs_v: f64) -> Vec<f64> {
+    if let Some(g) = calibrate::effect_grid(p, effect, k, max_abs_v) {
+        return g;
+    }
     let s = calibrate::effect_scale(p, effect, max_abs_v);
     let v: Vec<f64> = match effect {
         Effect::InputDelay => [0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0]

@@ -199,9 +199,13 @@ pub fn effect_scale(p: &ActuatorParams, effect: Effect, max_abs_v: f64) -> f64 {
 }
 
 /// The knob for `param`, with bounds around `p`'s value (or, for an effect, around its
-/// natural scale: an effect to be found is off in `p`).
+/// natural scale: an effect to be found is off in `p`). Signed effects (the tachometer's
+/// offset and current pickup) are linear knobs symmetric about 0, as wide as their natural
+/// scale; the stiction ratio runs from 1 (none) up; the dead band up to the largest command
+/// (beyond it nothing moves).
 pub fn knob(p: &ActuatorParams, param: Param, max_abs_v: f64) -> Knob {
     let h = p.sample_period_s;
+    let vm = max_abs_v.max(1e-3);
     let (log, lo, hi, fd_step) = match param {
         Param::Effect(Effect::InputDelay) => (
             false,
@@ -210,12 +214,13 @@ pub fn knob(p: &ActuatorParams, param: Param, max_abs_v: f64) -> Knob {
             0.1 * h,
         ),
         Param::Effect(Effect::TachGain) => (false, -0.9, 3.0, 0.01),
-        Param::Effect(Effect::VoltageLimit) => (
-            true,
-            0.02 * max_abs_v.max(1e-3),
-            2.0 * max_abs_v.max(1e-3),
-            0.01,
-        ),
+        Param::Effect(Effect::VoltageLimit) => (true, 0.02 * vm, 2.0 * vm, 0.01),
+        Param::Effect(Effect::StictionRatio) => (true, 1.0, 10.0, 0.02),
+        Param::Effect(Effect::DriveDeadband) => (true, 1e-4 * vm, vm, 0.02),
+        Param::Effect(e @ (Effect::TachOffset | Effect::TachCurrentCoupling)) => {
+            let s = effect_scale(p, e, max_abs_v).abs().max(1e-9);
+            (false, -s, s, 0.01 * s)
+        }
         Param::Effect(e) => {
             let s = effect_scale(p, e, max_abs_v);
             (true, s * 1e-5, s * 1e3, 0.02)
@@ -234,6 +239,33 @@ pub fn knob(p: &ActuatorParams, param: Param, max_abs_v: f64) -> Knob {
     }
 }
 
+/// Values of `effect` (whose knob is `k`) that a search tries first, for the effects whose
+/// natural grid is not the default (multiples of the natural scale from 1e-3 to 3, which a
+/// caller supplies itself): both signs for the signed ones, ratios from 1.2 up for
+/// stiction, fractions of the largest command for the dead band, fractions of a period to
+/// several periods for the tachometer's lag. `None` for the others. Clamped into the knob's
+/// bounds.
+pub fn effect_grid(
+    p: &ActuatorParams,
+    effect: Effect,
+    k: &Knob,
+    max_abs_v: f64,
+) -> Option<Vec<f64>> {
+    let s = effect_scale(p, effect, max_abs_v);
+    let times = |f: &[f64]| -> Vec<f64> { f.iter().map(|x| x * s).collect() };
+    let v = match effect {
+        Effect::StictionRatio => vec![1.2, 1.5, 2.0, 2.5, 3.0, 4.0],
+        Effect::DriveDeadband => times(&[0.005, 0.01, 0.02, 0.05, 0.1, 0.2]),
+        Effect::TachLag => times(&[0.05, 0.1, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0]),
+        Effect::TachOffset | Effect::TachCurrentCoupling => {
+            let f = [1e-3, 3e-3, 0.01, 0.03, 0.1, 0.3];
+            f.iter().flat_map(|x| [-x * s, x * s]).collect()
+        }
+        _ => return None,
+    };
+    Some(v.into_iter().map(|x| x.clamp(k.lo, k.hi)).collect())
+}
+
 /// The default set for `p`: every base parameter that is non-zero there.
 pub fn default_knobs(p: &ActuatorParams, max_abs_v: f64) -> Vec<Knob> {
     BASE_KNOBS
@@ -241,4 +273,42 @@ pub fn default_knobs(p: &ActuatorParams, max_abs_v: f64) -> Vec<Knob> {
         .filter(|&n| get(p, n) > 0.0)
         .map(|n| knob(p, n, max_abs_v))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use geared_servo::REFERENCE;
+
+    /// The signed effects get linear knobs symmetric about 0 and grids of both signs (so a
+    /// negative offset or pickup can be found); the stiction ratio never leaves the
+    /// physical range (a ratio below 1 is invalid and would fail every simulation); the
+    /// dead band stops at the largest command.
+    #[test]
+    fn bench_effect_knobs_stay_in_their_domains() {
+        let p = REFERENCE;
+        for e in [Effect::TachOffset, Effect::TachCurrentCoupling] {
+            let k = knob(&p, Param::Effect(e), 10.0);
+            assert!(!k.log && k.lo == -k.hi && k.hi > 0.0, "{e}: {k:?}");
+            let g = effect_grid(&p, e, &k, 10.0).unwrap();
+            assert!(
+                g.iter().any(|&x| x < 0.0) && g.iter().any(|&x| x > 0.0),
+                "{e}"
+            );
+            // Wide enough for the registry's plausible range.
+            let (lo, hi) = e.plausible_range();
+            assert!(k.lo <= lo && hi <= k.hi, "{e}: {k:?}");
+        }
+        let k = knob(&p, Param::Effect(Effect::StictionRatio), 10.0);
+        assert_eq!(k.lo, 1.0);
+        assert_eq!(k.from_z(f64::NEG_INFINITY), 1.0);
+        let mut q = p;
+        for x in effect_grid(&p, Effect::StictionRatio, &k, 10.0).unwrap() {
+            set(&mut q, k.param, x);
+            assert!(q.derived().is_ok(), "stiction {x}");
+        }
+        let k = knob(&p, Param::Effect(Effect::DriveDeadband), 10.0);
+        assert!(k.hi <= 10.0 && k.lo > 0.0);
+        assert!(effect_grid(&p, Effect::MeshDamping, &k, 10.0).is_none());
+    }
 }

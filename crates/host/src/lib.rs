@@ -13,6 +13,7 @@
 )]
 
 pub mod calibrate;
+pub mod datasheet;
 pub mod design;
 pub mod diagnose;
 pub mod diagnose_plots;

@@ -76,8 +76,9 @@ pub struct Entry {
     pub key: String,
     /// Unit ([`unit_of`]); [`DIMENSIONLESS`] for a ratio or a flag.
     pub unit: &'static str,
-    /// Meaning, from the comment of the key in the bundled reference file (empty where that
-    /// file has no such key or no words beyond the unit).
+    /// Meaning, from the comment of the key in the bundled reference file; for an effect
+    /// that file does not list, the registry's [`Effect::meaning`] (empty for any other key
+    /// the file lacks or a comment with no words beyond the unit).
     pub description: String,
     /// The value.
     pub value: Value,
@@ -120,6 +121,7 @@ impl ParamList {
                 .as_ref()
                 .and_then(|r| lookup(r.as_item(), &key))
                 .map(comment_words)
+                .or_else(|| Effect::from_key(&key).map(|e| e.meaning().trim().to_string()))
                 .unwrap_or_default();
             entries.push(Entry {
                 key,
@@ -274,9 +276,17 @@ mod tests {
     #[test]
     fn list_is_the_reference_files_keys_in_order() {
         let list = ParamList::new(&REFERENCE).unwrap();
-        let keys: Vec<String> = reference_units().into_iter().map(|(k, _)| k).collect();
+        let mut keys: Vec<String> = reference_units().into_iter().map(|(k, _)| k).collect();
+        // Effects the reference file predates follow its keys, in the registry's order.
+        for e in Effect::ALL {
+            if !keys.iter().any(|k| k == e.key()) {
+                keys.push(e.key().to_string());
+            }
+        }
         let listed: Vec<&str> = list.entries().iter().map(|e| e.key.as_str()).collect();
         assert_eq!(listed, keys);
+        let lag = &list.entries()[list.find("effects.tach_lag").unwrap()];
+        assert!(lag.description.starts_with("Time constant"), "{lag:?}");
         let r = &list.entries()[list.find("motor.resistance_ohm").unwrap()];
         assert_eq!(r.value, Value::Real(32.5));
         assert_eq!(r.unit, "ohm");

@@ -3,21 +3,31 @@
 //! With backlash and little damping some regimes are chaotic (gear rattle, MODEL.md): two
 //! copies of the same actuator whose parameters differ by a hundredth of a percent part within
 //! a fraction of a second, and no calibration can make a model follow a real rig there. The
-//! model says so itself: an ensemble of copies, each with the parameters moved by a tiny
-//! amount (10⁻⁴ of the inertias and stiffness, 5·10⁻⁴ of the frictions and backlash), stays
+//! model says so itself: an ensemble of copies, each with the parameters moved by a small
+//! amount (10⁻³ of the inertias and stiffness, 5·10⁻³ of the frictions and backlash), stays
 //! together where the motion is predictable (the spread is proportional to the perturbation:
-//! below 10⁻³ of the signal even at a lightly damped resonance, whose sensitivity to a
+//! about 10⁻² of the signal even at a lightly damped resonance, whose sensitivity to a
 //! parameter is some tens) and parts where it is not (the spread grows exponentially to the
-//! size of the signal). The perturbation is kept tiny on purpose: a larger one (1 %) also
-//! marks the resonance bursts, where the motion is predictable but sensitive, and weights out
-//! the very rows that tell inertia from stiffness. Rows inside unpredictable spans are
-//! weighted out of fits and decisions, their share is reported, and they are compared by
-//! statistics instead (RMS level).
+//! size of the signal). A window is unpredictable when the spread passes 5 % of the signal.
+//! Rows inside unpredictable spans are weighted out of fits and decisions, their share is
+//! reported, and they are compared by statistics instead (RMS level).
 //!
-//! Measured on the foreign suite's clean units (`host-tests/examples/rattle_probe.rs`): at
-//! the true parameters the predictable rows of the emulator follow the independent
-//! reference to the noise floor (NRMSE 0.94–1.06 × floor on all three draws, against
-//! 1.01–3.55 × with the former 1 %/5 % ensemble and a 15 % line).
+//! The size of the perturbation is a compromise, measured both ways:
+//! - Larger (1 % and 5 %, a 15 % line) also marks the resonance bursts, where the motion is
+//!   predictable but sensitive, and weights out the very rows that tell inertia from
+//!   stiffness: at the true parameters of the foreign suite's clean units
+//!   (`host-tests/examples/rattle_probe.rs`) the kept rows of the emulator follow the
+//!   independent reference at 1.01–3.55 × the noise floor.
+//! - Smaller (10⁻⁴ and 5·10⁻⁴, a 2 % line) marks long spans after every reversal of a lightly
+//!   damped gear train as well, because copies that parted by 10⁻⁴ must come back within
+//!   0.5 % to be counted together again: 67 % of a square-wave record of a soft data-sheet rig
+//!   (`datasheet_init.rs`), and the calibration from the data sheet's guesses then stalls at
+//!   NRMSE 0.17 instead of reaching the truth; a stiction case (`diagnose_bench_effects.rs`)
+//!   fails the same way.
+//! - This setting: kept-row NRMSE 0.98 / 1.02 / 1.00 × the floor on the three estimation
+//!   records of the probe (`rattle_probe -- -1 3 x 1e-3,5e-3,0.05`) and 1.03 / 0.94 / 1.51
+//!   × on their validation records (10⁻⁴: 0.99–1.02 and 0.94–1.06), with both tests above
+//!   passing.
 
 use crate::calibrate::{self, Data, Param};
 use geared_servo::ActuatorParams;
@@ -40,10 +50,10 @@ pub struct Settings {
 impl Default for Settings {
     fn default() -> Self {
         Settings {
-            inertia_perturbation: 1e-4,
-            friction_perturbation: 5e-4,
+            inertia_perturbation: 1e-3,
+            friction_perturbation: 5e-3,
             window_s: 0.025,
-            threshold: 0.02,
+            threshold: 0.05,
         }
     }
 }

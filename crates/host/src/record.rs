@@ -3,6 +3,24 @@
 //!
 //! Row k: the outputs were sampled at `time_s[k]`, then `motor_voltage_v[k]` was applied
 //! until the next row. The first row's outputs are the initial state.
+//!
+//! # Time bases
+//! A record whose intervals are all within [`UNIFORM_TOLERANCE`] of their mean is uniform and
+//! read as it is. Logs from servo buses, USB and scopes jitter by several per cent: such a
+//! record is resampled onto the uniform grid of its mean period (same first instant, same
+//! number of rows), with one warning saying how much the instants departed from that grid and
+//! what was done:
+//! - the outputs are interpolated linearly between the samples around each grid instant
+//!   (they are sampled values of continuous signals; the error is that of a chord over a
+//!   fraction of a period, far below sensor noise at the rates records are taken);
+//! - the voltage is the drive's zero-order hold (each row's command applies until the next
+//!   row), so each grid period gets the mean of that held voltage over the period: the same
+//!   volt-seconds as the drive applied, which is what the plant's held step integrates.
+//!   Interpolating it linearly would turn a square wave's edges into ramps no drive makes.
+//!
+//! Time that does not increase is refused, and so is an interval longer than
+//! [`MAX_INTERVAL_PERIODS`] typical (median) periods: samples are missing there, and no
+//! interpolation can tell what the output did in the gap.
 
 use crate::error::{shown, HostError};
 use std::path::Path;
@@ -19,12 +37,20 @@ pub const OUTPUT_COLUMNS: [&str; 5] = [
     "current_a",
 ];
 
+/// Intervals within this fraction of the mean period are uniform sampling (no resampling).
+pub const UNIFORM_TOLERANCE: f64 = 0.01;
+
+/// Longest interval between rows, in typical (median) periods; a longer one is a gap
+/// (missing samples) and the record is refused.
+pub const MAX_INTERVAL_PERIODS: f64 = 1.5;
+
 /// A uniformly sampled record.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Record {
     /// `# key: value` comment lines before the header, in order.
     pub metadata: Vec<(String, String)>,
-    /// Sample instants, s.
+    /// Sample instants, s (uniform: a jittered record's are those of the grid it was
+    /// resampled onto).
     pub time_s: Vec<f64>,
     /// Mean sample period, s.
     pub sample_period_s: f64,
@@ -205,9 +231,14 @@ pub fn parse(text: &str, name: &str, require_output: bool) -> Result<Record, Hos
             o.push(field(*i, cname)?);
         }
     }
-    let dt = sample_period(&time_s, name, |k| {
-        format!("{name}: line {}", header_line + k + 1)
-    })?;
+    let dt = time_base(
+        &mut time_s,
+        &mut volts,
+        &mut outs,
+        &mut warnings,
+        name,
+        |k| format!("{name}: line {}", header_line + k + 1),
+    )?;
     Ok(Record {
         metadata,
         time_s,
@@ -282,15 +313,25 @@ pub fn from_columns(
             }
         }
     }
-    let dt = sample_period(t, name, |k| format!("{name}: row {k}"))?;
+    let (mut time_s, mut volts) = (t.to_vec(), v.to_vec());
+    let mut values: Vec<Vec<f64>> = outs.iter().map(|(_, v)| v.to_vec()).collect();
+    let dt = time_base(
+        &mut time_s,
+        &mut volts,
+        &mut values,
+        &mut warnings,
+        name,
+        |k| format!("{name}: row {k}"),
+    )?;
     Ok(Record {
         metadata: Vec::new(),
-        time_s: t.to_vec(),
+        time_s,
         sample_period_s: dt,
-        motor_voltage_v: v.to_vec(),
+        motor_voltage_v: volts,
         outputs: outs
             .iter()
-            .map(|(c, v)| (c.to_string(), v.to_vec()))
+            .map(|(c, _)| c.to_string())
+            .zip(values)
             .collect(),
         warnings,
     })
@@ -303,10 +344,15 @@ fn not_increasing(place: &str, t: f64, prev: f64) -> HostError {
     ))
 }
 
-/// The mean sample period of increasing `time_s`, which must have two rows at least and be
-/// uniform within 1 %; `row(k)` names row k (0-based) in messages.
-fn sample_period(
-    time_s: &[f64],
+/// The sample period of increasing `time_s` (two rows at least), which is made uniform: a
+/// jittered time base is resampled onto the grid of its mean period (see the module's "Time
+/// bases"), `volts` and `outs` with it, and one warning is pushed; a gap longer than
+/// [`MAX_INTERVAL_PERIODS`] typical periods is refused. `row(k)` names row k (0-based).
+fn time_base(
+    time_s: &mut Vec<f64>,
+    volts: &mut Vec<f64>,
+    outs: &mut [Vec<f64>],
+    warnings: &mut Vec<String>,
     name: &str,
     row: impl Fn(usize) -> String,
 ) -> Result<f64, HostError> {
@@ -321,17 +367,121 @@ fn sample_period(
         time_s.last().copied().unwrap_or(0.0),
     );
     let dt = (last - first) / (time_s.len() - 1) as f64;
+    // Gaps are judged against the median interval, which they do not bias (the mean they
+    // lengthen).
+    let typical = {
+        let mut d: Vec<f64> = time_s.windows(2).map(|w| w[1] - w[0]).collect();
+        d.sort_by(f64::total_cmp);
+        d.get(d.len() / 2).copied().unwrap_or(dt)
+    };
+    let mut uniform = true;
     for (k, pair) in time_s.windows(2).enumerate() {
         let [a, b] = pair else { continue };
         let d = b - a;
-        if (d - dt).abs() > 0.01 * dt {
+        if d > MAX_INTERVAL_PERIODS * typical {
             return Err(HostError::input(format!(
-                "{}, column `time_s`: sampling is not uniform (step {d:.6e} s against a mean of {dt:.6e} s; 1 % allowed)",
-                row(k + 1)
+                "{}, column `time_s`: a gap of {d:.6e} s after the previous row, {:.2} times the typical period {typical:.6e} s (samples are missing; at most {MAX_INTERVAL_PERIODS} allowed)",
+                row(k + 1),
+                d / typical
             )));
         }
+        uniform &= (d - dt).abs() <= UNIFORM_TOLERANCE * dt;
+    }
+    if !uniform {
+        let j = jitter(time_s, dt);
+        warnings.push(format!(
+            "{name}: the time base jitters: sample instants depart from a uniform grid of {dt:.6e} s by {:.1} % of a period RMS, {:.1} % at most (intervals {:.1}-{:.1} % of it); resampled onto that grid: outputs interpolated linearly, the held voltage averaged over each period",
+            100.0 * j.rms,
+            100.0 * j.max,
+            100.0 * j.shortest,
+            100.0 * j.longest
+        ));
+        let grid: Vec<f64> = (0..time_s.len()).map(|k| first + k as f64 * dt).collect();
+        *volts = held_means(time_s, volts, &grid, dt);
+        for o in outs.iter_mut() {
+            *o = interpolate(time_s, o, &grid);
+        }
+        *time_s = grid;
     }
     Ok(dt)
+}
+
+/// How far a time base departs from the uniform grid of period `dt` from its first instant,
+/// as fractions of `dt`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Jitter {
+    /// RMS of the instants' departures from the grid.
+    pub rms: f64,
+    /// Largest departure.
+    pub max: f64,
+    /// Shortest interval.
+    pub shortest: f64,
+    /// Longest interval.
+    pub longest: f64,
+}
+
+/// [`Jitter`] of `time_s` (at least two instants) against the grid of period `dt` (s).
+pub fn jitter(time_s: &[f64], dt: f64) -> Jitter {
+    let t0 = time_s.first().copied().unwrap_or(0.0);
+    let dev: Vec<f64> = time_s
+        .iter()
+        .enumerate()
+        .map(|(k, t)| (t - (t0 + k as f64 * dt)) / dt)
+        .collect();
+    let n = dev.len().max(1) as f64;
+    let intervals = time_s.windows(2).map(|w| (w[1] - w[0]) / dt);
+    Jitter {
+        rms: (dev.iter().map(|d| d * d).sum::<f64>() / n).sqrt(),
+        max: dev.iter().fold(0.0f64, |m, d| m.max(d.abs())),
+        shortest: intervals.clone().fold(f64::INFINITY, f64::min),
+        longest: intervals.fold(0.0f64, f64::max),
+    }
+}
+
+/// `y` (sampled at the increasing instants `t`) linearly interpolated at the increasing
+/// instants `at`; held flat beyond the ends.
+fn interpolate(t: &[f64], y: &[f64], at: &[f64]) -> Vec<f64> {
+    let mut j = 0usize;
+    at.iter()
+        .map(|&x| {
+            while t.get(j + 1).is_some_and(|&tn| tn <= x) {
+                j += 1;
+            }
+            match (t.get(j), t.get(j + 1), y.get(j), y.get(j + 1)) {
+                (Some(&ta), Some(&tb), Some(&ya), Some(&yb)) if x > ta => {
+                    ya + (yb - ya) * (x - ta) / (tb - ta)
+                }
+                (_, _, Some(&ya), _) => ya,
+                _ => 0.0,
+            }
+        })
+        .collect()
+}
+
+/// Mean over each period `[g, g + dt)` of the grid `grid` of the voltage held from `t[k]`
+/// at `v[k]` until `t[k + 1]` (the last held on; before `t[0]`, `v[0]`).
+fn held_means(t: &[f64], v: &[f64], grid: &[f64], dt: f64) -> Vec<f64> {
+    let held = |k: usize| v.get(k).or(v.last()).copied().unwrap_or(0.0);
+    // Start of the held segment k (k ≥ 1), end of segment k.
+    let start = |k: usize| t.get(k).copied().unwrap_or(f64::INFINITY);
+    let mut k = 0usize;
+    grid.iter()
+        .map(|&a| {
+            let b = a + dt;
+            // The segment holding at `a`.
+            while start(k + 1) <= a {
+                k += 1;
+            }
+            let (mut acc, mut from, mut j) = (0.0, a, k);
+            while from < b {
+                let to = start(j + 1).min(b);
+                acc += held(j) * (to - from);
+                from = to;
+                j += 1;
+            }
+            acc / dt
+        })
+        .collect()
 }
 
 /// Writes columns as CSV: `comments` as leading `# ` lines, then the header and the rows.
@@ -437,8 +587,90 @@ mod tests {
         .unwrap_err();
         assert!(
             e.message
-                .starts_with("df: row 1, column `time_s`: sampling is not uniform"),
+                .starts_with("df: row 2, column `time_s`: a gap of"),
             "{e}"
+        );
+    }
+
+    /// `n` rows at instants `t(k)` of a ramp output and a square voltage (period 8 rows).
+    fn csv(n: usize, t: impl Fn(usize) -> f64) -> String {
+        let mut s = String::from("time_s,motor_voltage_v,load_angle_deg\n");
+        for k in 0..n {
+            let tk = t(k);
+            let v = if (k / 4) % 2 == 0 { 5.0 } else { -5.0 };
+            s.push_str(&format!("{tk},{v},{}\n", 3.0 + 2000.0 * tk));
+        }
+        s
+    }
+
+    #[test]
+    fn a_jittered_time_base_is_resampled_with_one_warning() {
+        let h = 5e-4;
+        // ±3 % of a period, deterministic and irregular.
+        let j = |k: usize| 0.03 * h * ((k as f64 * 1.7).sin());
+        let rec = parse(&csv(400, |k| k as f64 * h + j(k)), "j.csv", true).unwrap();
+        assert_eq!(rec.warnings.len(), 1, "{:?}", rec.warnings);
+        let w = &rec.warnings[0];
+        assert!(
+            w.contains("jitters") && w.contains("resampled") && !w.contains('\n'),
+            "{w}"
+        );
+        assert_eq!(rec.len(), 400);
+        // Uniform grid from the first instant at the mean period.
+        let dt = rec.sample_period_s;
+        for (k, t) in rec.time_s.iter().enumerate() {
+            assert!((t - (rec.time_s[0] + k as f64 * dt)).abs() < 1e-12);
+        }
+        // A ramp is interpolated exactly (up to rounding) wherever samples bracket it.
+        let y = rec.output("load_angle_deg").unwrap();
+        for (t, yk) in rec.time_s.iter().zip(y).skip(1).take(398) {
+            assert!((yk - (3.0 + 2000.0 * t)).abs() < 1e-9, "{t}: {yk}");
+        }
+        // The held voltage keeps its volt-seconds over whole grid periods.
+        let t_in: Vec<f64> = (0..400).map(|k| k as f64 * h + j(k)).collect();
+        let end = rec.time_s[399];
+        let held: f64 = (0..399)
+            .map(|k| {
+                let v = if (k / 4) % 2 == 0 { 5.0 } else { -5.0 };
+                v * (t_in[k + 1].min(end) - t_in[k].min(end))
+            })
+            .sum();
+        let grid: f64 = rec.motor_voltage_v.iter().take(399).map(|v| v * dt).sum();
+        assert!((held - grid).abs() < 1e-9, "{held} vs {grid}");
+        // A voltage switch falling inside a grid period is split by time.
+        assert!(rec.motor_voltage_v.iter().any(|v| v.abs() < 4.9));
+    }
+
+    #[test]
+    fn a_uniform_time_base_is_read_as_it_is() {
+        let h = 5e-4;
+        let text = csv(50, |k| {
+            k as f64 * h * (1.0 + 0.004 * (k % 2) as f64 / k.max(1) as f64)
+        });
+        let rec = parse(&text, "u.csv", true).unwrap();
+        assert!(rec.warnings.is_empty(), "{:?}", rec.warnings);
+        assert!(rec.motor_voltage_v.iter().all(|v| v.abs() == 5.0));
+    }
+
+    #[test]
+    fn a_gap_of_missing_samples_is_refused_naming_its_line() {
+        let h = 5e-4;
+        // Rows 10 and 11 missing: an interval of three periods before data row 10 (line 12:
+        // the header is line 1).
+        let t = |k: usize| {
+            if k < 10 {
+                k as f64 * h
+            } else {
+                (k + 2) as f64 * h
+            }
+        };
+        let e = parse(&csv(40, t), "g.csv", true).unwrap_err();
+        assert!(
+            e.message
+                .starts_with("g.csv: line 12, column `time_s`: a gap of")
+                && e.message.contains("samples are missing"),
+            "{}",
+            e.message
         );
     }
 }
