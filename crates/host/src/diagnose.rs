@@ -536,7 +536,8 @@ pub fn diagnose(
                 from_file.effects.set(added, cur.params.effects.get(added));
             }
         }
-        let two_starts = poor || !calibrate::at_bounds(&cur).is_empty();
+        let cur_bounds = calibrate::at_bounds(&cur);
+        let two_starts = poor || !cur_bounds.is_empty();
         let n_eff = effective_samples(&cur.params, &wdata);
         let mut judged: Vec<Judged> = Vec::new();
         for (e, k, _, v) in scores.iter().take(take) {
@@ -595,6 +596,13 @@ pub fn diagnose(
             let value = fit.values.last().copied().unwrap_or(f64::NAN);
             let delta_bic = n_eff * (fit.cost / cur.cost).ln() + n_eff.ln();
             let imp = implausibility(*e, value, opts.plausibility_slack);
+            // A refit that needs another parameter at a bound of the calibration (30 times
+            // the file's value or a thirtieth) is the model bending to stand in for something
+            // else, not an explanation.
+            let new_bounds: Vec<String> = calibrate::at_bounds(&fit)
+                .into_iter()
+                .filter(|n| !cur_bounds.contains(n))
+                .collect();
             let admissible = if delta_bic.is_nan() || delta_bic >= opts.bic_threshold {
                 Err(format!("did not earn its parameter (ΔBIC {delta_bic:.1})"))
             } else if cur.cost - fit.cost < opts.min_excess_share * (cur.cost - floor) {
@@ -608,6 +616,11 @@ pub fn diagnose(
                 Err(format!(
                     "value {value:.4e} {} is implausible (plausible {lo:e} to {hi:e})",
                     e.unit()
+                ))
+            } else if !new_bounds.is_empty() {
+                Err(format!(
+                    "its refit needs {} at a bound (the file value x30 or /30): it stands in for something else",
+                    new_bounds.join(", ")
                 ))
             } else {
                 Ok(())

@@ -309,6 +309,12 @@ impl Outcome {
                     k.param.unit()
                 );
             }
+            for k in calibrate::at_bounds(&self.final_fit) {
+                let _ = writeln!(
+                    s,
+                    "  {k} is at its bound (the file value x30 or /30): the model lacks something"
+                );
+            }
         }
         let f = &self.final_analysis;
         let _ = writeln!(
