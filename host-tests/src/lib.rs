@@ -4,6 +4,8 @@
 #[cfg(feature = "host")]
 pub mod catalogue;
 #[cfg(feature = "host")]
+pub mod cli;
+#[cfg(feature = "host")]
 pub mod foreign;
 #[cfg(feature = "host")]
 pub mod no_answer_catalogue;

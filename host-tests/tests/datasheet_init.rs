@@ -2,22 +2,17 @@
 //! writes reproduces the data sheet's operating points when simulated, and `diagnose`
 //! calibrates its guesses against a record of a rig that differs from them.
 
-use clap::Parser;
 use geared_servo::{Plant, PlantState};
-use geared_servo_cli::{run, Cli, Report};
+use geared_servo_cli::Report;
 use geared_servo_host::calibrate::{self, Param};
 use geared_servo_host::{params_file, record, ErrorKind, HostError};
+use geared_servo_host_tests::cli::cli;
 use geared_servo_host_tests::records::square;
 use std::path::PathBuf;
 
-fn cli(args: &[&str]) -> Result<Report, HostError> {
-    run(&Cli::try_parse_from(std::iter::once("geared-servo").chain(args.iter().copied())).unwrap())
-}
-
+/// A fresh scratch directory for test `name`.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("gs-init-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    geared_servo_host_tests::cli::scratch("init", name)
 }
 
 /// A 12 V, 100 rpm gear motor (ratio 100, 1.2 N*m and 1.6 A at stall, 0.12 A at no load)

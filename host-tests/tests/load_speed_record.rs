@@ -2,24 +2,16 @@
 //! "Measured data"). A record carrying only it is read without warnings, fitted on it with the
 //! model's own load speed as the prediction, and `diagnose` runs on it and names it.
 
-use clap::Parser;
 use geared_servo::REFERENCE;
-use geared_servo_cli::{run, Cli, Report};
 use geared_servo_host::calibrate::{nrmse, Data};
 use geared_servo_host::record;
-use geared_servo_host::HostError;
+use geared_servo_host_tests::cli::cli;
 use geared_servo_host_tests::records::square;
 use std::path::{Path, PathBuf};
 
-fn cli(args: &[&str]) -> Result<Report, HostError> {
-    run(&Cli::try_parse_from(std::iter::once("geared-servo").chain(args.iter().copied())).unwrap())
-}
-
-/// A scratch directory for one test.
+/// A fresh scratch directory for test `name`.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("gs-load-speed-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    geared_servo_host_tests::cli::scratch("load-speed", name)
 }
 
 /// `simulate` run on a 0.5 s, ±10 V square wave at 2 kHz (`params`: a parameter file, or the

@@ -2,13 +2,12 @@
 //! resampled with one warning and gives the same diagnosis as the uniform record; a record
 //! carrying only the load angle, or only the current, works with `simulate` and `diagnose`.
 
-use clap::Parser;
 use geared_servo::{ActuatorParams, Effect, Plant, PlantState, REFERENCE};
-use geared_servo_cli::{run, Cli, Report};
 use geared_servo_host::calibrate::Data;
 use geared_servo_host::diagnose::{diagnose, Options};
+use geared_servo_host::record;
 use geared_servo_host::synth::{self};
-use geared_servo_host::{record, HostError};
+use geared_servo_host_tests::cli::cli;
 use geared_servo_host_tests::records::square;
 use geared_servo_host_tests::scenario::{perturbed, spec, NOISE_V};
 use rand::{Rng, SeedableRng};
@@ -137,14 +136,9 @@ fn resampling_fits_the_true_actuator_better_than_ignoring_the_jitter() {
     assert!(e_resampled < 0.5 * e_naive, "{e_resampled} vs {e_naive}");
 }
 
-fn cli(args: &[&str]) -> Result<Report, HostError> {
-    run(&Cli::try_parse_from(std::iter::once("geared-servo").chain(args.iter().copied())).unwrap())
-}
-
+/// A fresh scratch directory for test `name`.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("gs-outputs-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    geared_servo_host_tests::cli::scratch("outputs", name)
 }
 
 /// `simulate` of a ±10 V square on the rig `params`, cut down to `time_s`,
