@@ -239,12 +239,7 @@ impl Outcome {
                 self.base.moved
             );
         }
-        for k in calibrate::at_bounds(&self.base) {
-            let _ = writeln!(
-                s,
-                "  {k} is at its bound (the file value x30 or /30): the model lacks something"
-            );
-        }
+        bound_lines(&mut s, &self.base);
         for (a, bb, r) in calibrate::inseparable(&self.base, 0.95) {
             let _ = writeln!(s, "  cannot separate {a} and {bb} (correlation {r:+.3})");
         }
@@ -309,12 +304,7 @@ impl Outcome {
                     k.param.unit()
                 );
             }
-            for k in calibrate::at_bounds(&self.final_fit) {
-                let _ = writeln!(
-                    s,
-                    "  {k} is at its bound (the file value x30 or /30): the model lacks something"
-                );
-            }
+            bound_lines(&mut s, &self.final_fit);
         }
         let f = &self.final_analysis;
         let _ = writeln!(
@@ -346,5 +336,16 @@ impl Outcome {
             }
         }
         s
+    }
+}
+
+/// One line for each parameter of `fit` at a bound of the calibration.
+fn bound_lines(s: &mut String, fit: &calibrate::Fit) {
+    use std::fmt::Write as _;
+    for k in calibrate::at_bounds(fit) {
+        let _ = writeln!(
+            s,
+            "  {k} is at its bound (the file value x30 or /30): the model lacks something"
+        );
     }
 }
