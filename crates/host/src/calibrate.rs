@@ -38,6 +38,49 @@ pub struct Data {
     pub weight: Vec<f64>,
     /// ‖√w (y − ȳ_w)‖₂ (ȳ_w the weighted mean), the NRMSE denominator.
     pub norm: f64,
+    /// Robust window loss for the search ([`Robust`]); `None`: plain least squares.
+    pub robust: Option<Robust>,
+}
+
+/// A robust loss over short windows of a record, for the *search* of a calibration (never
+/// for the figures it reports).
+///
+/// Near a lightly damped resonance a gear train with backlash has coexisting periodic
+/// responses (a jump, as in a softening spring), and where it rattles its motion is chaotic
+/// (MODEL.md): a parameter change of a percent can move a burst onto the other branch, and
+/// the least-squares cost then jumps by an order of magnitude — it is a patchwork of basins,
+/// not a bowl. Per window of `window` rows the residual energy E is compared with what the
+/// noise alone gives there, N = σ² Σw, and u = E/N enters as c ln(1 + u/c): like u while the
+/// window is within a few noise levels (u ≈ 1 for noise, a moderate model error of a few
+/// noise levels keeps almost its whole weight), but a window on the wrong branch (u in the
+/// hundreds) counts as some tens of noisy windows, not as a thousand. The search then sees how
+/// many windows a parameter set follows, which changes smoothly, instead of how far the ones
+/// it misses are off.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Robust {
+    /// Noise standard deviation of the record, in its output's unit.
+    pub sigma: f64,
+    /// Rows per window.
+    pub window: usize,
+    /// Scale c of the compression, in noise energies.
+    pub scale: f64,
+}
+
+impl Robust {
+    /// Window length, s: about a period of the lowest gear-mode frequency of interest and
+    /// the predictability windows' length.
+    pub const WINDOW_S: f64 = 0.025;
+    /// c: a window with 3 noise energies keeps 87 % of its weight, one with 1000 counts as 18.
+    pub const SCALE: f64 = 3.0;
+
+    /// The loss for a record sampled every `h` s whose noise is `sigma`.
+    pub fn new(sigma: f64, h: f64) -> Robust {
+        Robust {
+            sigma,
+            window: ((Robust::WINDOW_S / h).round() as usize).max(8),
+            scale: Robust::SCALE,
+        }
+    }
 }
 
 /// Output columns the fit can use, in order of preference: every measured output
@@ -75,7 +118,16 @@ impl Data {
             preroll,
             weight,
             norm,
+            robust: None,
         })
+    }
+
+    /// The same record with the robust window loss `r` for the search (`None`: plain).
+    pub fn with_robust(&self, r: Option<Robust>) -> Data {
+        Data {
+            robust: r.filter(|r| r.sigma > 0.0 && r.sigma.is_finite()),
+            ..self.clone()
+        }
     }
 
     /// The same record with row weights `w` (clamped to 0..=1; missing rows weigh 1) and the
@@ -185,6 +237,7 @@ pub fn residuals(p: &ActuatorParams, data: &[Data]) -> DVector<f64> {
     let m: usize = data.iter().map(|d| d.y.len()).sum();
     let mut r = Vec::with_capacity(m);
     for d in data {
+        let start = r.len();
         match simulate(p, d) {
             Some(t) => r.extend(
                 t.y.iter()
@@ -194,12 +247,37 @@ pub fn residuals(p: &ActuatorParams, data: &[Data]) -> DVector<f64> {
             ),
             None => r.extend(std::iter::repeat_n(1e3, d.y.len())),
         }
+        if let (Some(rb), Some(rows)) = (d.robust, r.get_mut(start..)) {
+            compress(rows, &d.weight, rb, w * w / (d.norm * d.norm));
+        }
     }
     DVector::from_vec(r)
 }
 
-/// Mean over records of NRMSE².
+/// Applies the robust window loss to one record's normalised residuals `rows` (each window's
+/// rows scaled so that their energy becomes N c ln(1 + u/c), [`Robust`]); `unit` is the
+/// factor that normalises a squared measurement (the rows' own scaling squared).
+fn compress(rows: &mut [f64], weight: &[f64], rb: Robust, unit: f64) {
+    let n2 = rb.sigma * rb.sigma * unit;
+    for (chunk, wch) in rows.chunks_mut(rb.window).zip(weight.chunks(rb.window)) {
+        let e: f64 = chunk.iter().map(|x| x * x).sum();
+        let noise = n2 * wch.iter().sum::<f64>();
+        if e > 0.0 && noise > 0.0 {
+            let rho = noise * rb.scale * (e / noise / rb.scale).ln_1p();
+            let f = (rho / e).sqrt();
+            for x in chunk.iter_mut() {
+                *x *= f;
+            }
+        }
+    }
+}
+
+/// Mean over records of NRMSE² (with a record's robust loss when it has one: the search's
+/// cost, [`Robust`]).
 pub fn cost(p: &ActuatorParams, data: &[Data]) -> f64 {
+    if data.iter().any(|d| d.robust.is_some()) {
+        return residuals(p, data).norm_squared();
+    }
     data.iter().map(|d| nrmse(p, d).powi(2)).sum::<f64>() / data.len().max(1) as f64
 }
 
@@ -584,24 +662,116 @@ pub fn explore(
     out
 }
 
-/// Points per knob that [`calibrate`] explores.
-pub const EXPLORE_PER_KNOB: usize = 48;
+/// Evolution-strategy search (CMA-ES, the `cmaes` crate) of the cost around `p0`: the
+/// knobs' internal coordinates scaled by the exploration box ([`explore`]), a start at `p0`
+/// with a step of half the box, `population` members per generation, at most `budget`
+/// simulations of the records, a fixed seed. Returns the best point seen and its cost.
+pub fn evolve(
+    p0: &ActuatorParams,
+    knobs: &[Knob],
+    data: &[Data],
+    population: usize,
+    budget: usize,
+) -> (f64, ActuatorParams) {
+    evolve_with(p0, knobs, data, population, budget, 0.5)
+}
 
-/// Starts [`calibrate`] polishes after exploring.
-pub const POLISHED_STARTS: usize = 4;
+/// [`evolve`] with the initial step `step` in units of the exploration box.
+pub fn evolve_with(
+    p0: &ActuatorParams,
+    knobs: &[Knob],
+    data: &[Data],
+    population: usize,
+    budget: usize,
+    step: f64,
+) -> (f64, ActuatorParams) {
+    let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, k.param))).collect();
+    let hw: Vec<f64> = knobs.iter().map(explore_half_width).collect();
+    let point = |u: &DVector<f64>| -> ActuatorParams {
+        let z: Vec<f64> = z0
+            .iter()
+            .zip(&hw)
+            .zip(u.iter())
+            .map(|((a, h), ui)| a + h * ui)
+            .collect();
+        apply(p0, knobs, &z)
+    };
+    let objective = |u: &DVector<f64>| -> f64 {
+        let c = cost(&point(u), data);
+        if c.is_finite() {
+            c
+        } else {
+            1e6
+        }
+    };
+    let c0 = cost(p0, data);
+    let Ok(mut es) = cmaes::CMAESOptions::new(vec![0.0; knobs.len()], step)
+        .population_size(population.max(4))
+        .max_function_evals(budget.max(population))
+        .tol_fun(1e-9)
+        .seed(0x5eed)
+        .build(objective)
+    else {
+        return (c0, *p0);
+    };
+    let best = es.run_parallel().overall_best;
+    match best {
+        Some(b) if b.value < c0 => (b.value, point(&b.point)),
+        _ => (c0, *p0),
+    }
+}
+
+/// Members per generation of the global search of [`calibrate`] (CMA-ES).
+pub const POPULATION: usize = 24;
+
+/// Simulations per knob the global search of [`calibrate`] may spend (split between its
+/// starts).
+pub const EVALS_PER_KNOB: usize = 360;
+
+/// Members and simulations per knob of a local search ([`refine`]).
+pub const LOCAL: (usize, usize) = (16, 120);
+
+/// The records with the robust window loss ([`Robust`]), each at its own noise level
+/// estimated from the record ([`crate::noise::sigma`]).
+pub fn robust(data: &[Data]) -> Vec<Data> {
+    data.iter()
+        .map(|d| {
+            let sigma = crate::noise::sigma(&d.y);
+            d.with_robust(Some(Robust::new(sigma, d.sample_period_s)))
+        })
+        .collect()
+}
+
+/// `fit` with its costs taken on `data` (plain least squares: what is reported and judged),
+/// after a search on a robust loss.
+fn plain(mut fit: Fit, p0: &ActuatorParams, data: &[Data]) -> Fit {
+    fit.cost = cost(&fit.params, data);
+    fit.cost_start = cost(p0, data);
+    fit
+}
+
+/// Levenberg–Marquardt on the robust window loss ([`robust`]) from `p0`, with at most
+/// `patience` (MINPACK's) evaluations per knob, reported with the plain costs on `data`.
+pub fn polish(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], patience: usize) -> Fit {
+    let fit = levenberg_marquardt_with(p0, knobs, &robust(data), patience);
+    plain(fit, p0, data)
+}
 
 /// Calibrates `knobs` from `p0`: the cost is multimodal (MODEL.md: backlash lowers the notch
 /// by an amount that depends on the amplitude, inertia does not, and a fit from the file can
-/// stop in the basin that trades one for the other), so the search is global first. Starts:
-/// the file, what the record's own frequency response says (eqs. 17a/b), and the best points
-/// of a Latin-hypercube exploration ([`explore`]); the best [`POLISHED_STARTS`] distinct ones
-/// get a coarse search and a short Levenberg–Marquardt, and the best of those a full one.
+/// stop in the basin that trades one for the other) and, on records of a rig, a patchwork of
+/// basins (near a lightly damped resonance a gear train with backlash has coexisting
+/// responses, and where it rattles it is chaotic: [`Robust`]). So the search is global and
+/// derivative-free on the robust window loss: CMA-ES ([`evolve`]) from the file and from what
+/// the record's own frequency response says (eqs. 17a/b), then Levenberg–Marquardt on the
+/// same loss from the best point. The fit is reported with the plain least-squares costs.
 pub fn calibrate(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> Fit {
-    let c0 = cost(p0, data);
-    // The record's own frequency response always gets polished: its cost before polishing
-    // says little (the notch can be right while friction is off).
-    let mut chosen: Vec<ActuatorParams> = Vec::new();
+    if knobs.is_empty() {
+        return levenberg_marquardt(p0, knobs, data);
+    }
+    let rdata = robust(data);
     let has = |param: Param| knobs.iter().any(|k| k.param == param);
+    let mut starts = vec![*p0];
     if has(Param::StiffnessKeq) && has(Param::MotorInertia) {
         if let Some(q) = data.first().and_then(|d| frf_start(p0, d)) {
             let inside = knobs.iter().all(|k| {
@@ -609,42 +779,19 @@ pub fn calibrate(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> Fit {
                 v >= k.lo && v <= k.hi
             });
             if inside {
-                chosen.push(q);
+                starts.push(q);
             }
         }
     }
-    let mut starts: Vec<(f64, ActuatorParams)> = vec![(c0, *p0)];
-    if !knobs.is_empty() {
-        starts.extend(explore(p0, knobs, data, EXPLORE_PER_KNOB * knobs.len()));
-    }
-    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // Distinct starts: at least a tenth of the exploration box apart in some knob.
-    let wanted = chosen.len() + POLISHED_STARTS;
-    for (_, q) in &starts {
-        let far = chosen.iter().all(|c| {
-            knobs.iter().any(|k| {
-                (k.to_z(get(c, k.param)) - k.to_z(get(q, k.param))).abs()
-                    > 0.1 * explore_half_width(k)
-            })
-        });
-        if far {
-            chosen.push(*q);
-        }
-        if chosen.len() >= wanted {
-            break;
-        }
-    }
-    let mut best: Option<Fit> = None;
-    for q in chosen {
-        let (p1, _) = coarse_search(&q, knobs, data, 1);
-        let f = levenberg_marquardt_with(&p1, knobs, data, 6);
-        if best.as_ref().is_none_or(|b| f.cost < b.cost) {
-            best = Some(f);
-        }
-    }
-    let start = best.map(|f| f.params).unwrap_or(*p0);
-    let mut fit = levenberg_marquardt(&start, knobs, data);
-    fit.cost_start = c0;
+    let budget = EVALS_PER_KNOB * knobs.len() / starts.len();
+    let best = starts
+        .iter()
+        .map(|q| evolve(q, knobs, &rdata, POPULATION, budget))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, q)| q)
+        .unwrap_or(*p0);
+    let fit = levenberg_marquardt(&best, knobs, &rdata);
+    let mut fit = plain(fit, p0, data);
     let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, k.param))).collect();
     fit.moved = knobs
         .iter()
@@ -655,8 +802,21 @@ pub fn calibrate(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> Fit {
     fit
 }
 
+/// A local search around `p0` on the robust window loss: CMA-ES with a step of a tenth of
+/// the exploration box ([`LOCAL`]), for when the rows being fitted have changed (new
+/// predictability weights) and a derivative's view of the patchwork would stall. Returns the
+/// better of `p0` and what it found.
+pub fn refine(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> ActuatorParams {
+    if knobs.is_empty() {
+        return *p0;
+    }
+    let (pop, per) = LOCAL;
+    evolve_with(p0, knobs, &robust(data), pop, per * knobs.len(), 0.1).1
+}
+
 /// Knobs that ended within 1 % (internal coordinate) of a bound: the fit wanted to go
-/// further, a sign that the model lacks something or the bound is wrong.
+/// further, a sign that the model lacks something or the bound is wrong (a knob whose lower
+/// bound is a legitimate value, [`Knob::floor_ok`], only at its upper bound).
 pub fn at_bounds(fit: &Fit) -> Vec<String> {
     fit.knobs
         .iter()
@@ -664,7 +824,7 @@ pub fn at_bounds(fit: &Fit) -> Vec<String> {
         .filter(|(k, &v)| {
             let (zl, zh, z) = (k.to_z(k.lo), k.to_z(k.hi), k.to_z(v));
             let w = (zh - zl).abs().max(1e-300);
-            (z - zl).abs() < 0.01 * w || (zh - z).abs() < 0.01 * w
+            ((z - zl).abs() < 0.01 * w && !k.floor_ok) || (zh - z).abs() < 0.01 * w
         })
         .map(|(k, _)| k.name().to_string())
         .collect()

@@ -420,8 +420,15 @@ fn distortion(cur: &Fit, f: &Fit) -> f64 {
     cur.knobs
         .iter()
         .zip(cur.values.iter())
-        .zip(f.values.iter())
-        .map(|((kn, a), b)| {
+        .filter_map(|(kn, a)| {
+            let b = f
+                .knobs
+                .iter()
+                .position(|x| x.param == kn.param)
+                .and_then(|i| f.values.get(i))?;
+            Some((kn, a, b))
+        })
+        .map(|(kn, a, b)| {
             let d = if kn.log {
                 kn.to_z(*b) - kn.to_z(*a)
             } else {
@@ -478,7 +485,7 @@ pub fn diagnose(
     let sigma: Vec<f64> = data.iter().map(|d| noise::sigma(&d.y)).collect();
     let val_sigma = validation.map(|v| noise::sigma(&v.y));
 
-    let knobs = match &opts.fit {
+    let mut knobs = match &opts.fit {
         None => calibrate::default_knobs(&nominal, max_v),
         Some(names) => {
             let mut ks = Vec::new();
@@ -488,12 +495,28 @@ pub fn diagnose(
             ks
         }
     };
-    // Predictability under the file's values, calibration, then predictability again under
-    // the calibration (which can differ a lot from the file) and a polish.
-    let w0 = weigh(&nominal, data, opts.predictability);
-    let first_fit = calibrate::calibrate(&nominal, &knobs, &w0);
-    let mut wdata = weigh(&first_fit.params, data, opts.predictability);
-    let mut base = calibrate::levenberg_marquardt(&first_fit.params, &knobs, &wdata);
+    // The default set carries a background mesh damping when the file declares none
+    // (calibrate::BACKGROUND_DAMPING: a model without any damping cannot be calibrated
+    // against a rig that rattles).
+    let mut start = nominal;
+    if opts.fit.is_none() {
+        if let Some(q) = calibrate::with_background_damping(&nominal, max_v) {
+            knobs.push(calibrate::background_damping_knob(&nominal, max_v));
+            start = q;
+        }
+    }
+    // Predictability under the start, a global calibration, then predictability again under
+    // the calibration (which can differ a lot from the file) and local searches on the rows
+    // it now keeps, twice: the rows and the fit settle together.
+    let w0 = weigh(&start, data, opts.predictability);
+    let first_fit = calibrate::calibrate(&start, &knobs, &w0);
+    let mut p = first_fit.params;
+    for _ in 0..2 {
+        let w = weigh(&p, data, opts.predictability);
+        p = calibrate::refine(&p, &knobs, &w);
+    }
+    let mut wdata = weigh(&p, data, opts.predictability);
+    let mut base = calibrate::polish(&p, &knobs, &wdata, 20);
     base.cost_start = calibrate::cost(&nominal, &wdata);
     base.moved = first_fit.moved;
     let wfirst = wdata.first().unwrap_or(first);
@@ -511,10 +534,17 @@ pub fn diagnose(
     };
     while steps.len() < opts.max_steps && material(cur.cost, &wdata) {
         let floor = floor_cost(&wdata, &sigma);
+        // An effect the model does not have yet, or one it carries only as a bounded
+        // background (the mesh damping): its whole range is the candidate.
+        let background = |c: Effect| {
+            cur.knobs
+                .iter()
+                .any(|k| k.param == Param::Effect(c) && k.floor_ok)
+        };
         let cands: Vec<(Effect, Knob)> = opts
             .candidates
             .iter()
-            .filter(|&&c| cur.params.effects.get(c) == 0.0)
+            .filter(|&&c| cur.params.effects.get(c) == 0.0 || background(c))
             .map(|&c| (c, calibrate::knob(&cur.params, Param::Effect(c), max_v)))
             .collect();
         if cands.is_empty() {
@@ -539,9 +569,15 @@ pub fn diagnose(
         let cur_bounds = calibrate::at_bounds(&cur);
         let two_starts = poor || !cur_bounds.is_empty();
         let n_eff = effective_samples(&cur.params, &wdata);
+        let rdata = calibrate::robust(&wdata);
         let mut judged: Vec<Judged> = Vec::new();
         for (e, k, _, v) in scores.iter().take(take) {
-            let mut ks = cur.knobs.clone();
+            let mut ks: Vec<Knob> = cur
+                .knobs
+                .iter()
+                .filter(|x| x.param != k.param)
+                .cloned()
+                .collect();
             ks.push(k.clone());
             let starts: Vec<ActuatorParams> = if two_starts {
                 vec![cur.params, from_file]
@@ -557,13 +593,13 @@ pub fn diagnose(
                 if *v != 0.0 {
                     calibrate::set(&mut p, k.param, *v);
                 }
-                let mut best_c = calibrate::cost(&p, &wdata);
+                let mut best_c = calibrate::cost(&p, &rdata);
                 let tried: Vec<(f64, ActuatorParams)> = grid(&start, *e, k, max_v)
                     .par_iter()
                     .map(|&g| {
                         let mut q = start;
                         calibrate::set(&mut q, k.param, g);
-                        (calibrate::cost(&q, &wdata), q)
+                        (calibrate::cost(&q, &rdata), q)
                     })
                     .collect();
                 for (c, q) in tried {
@@ -572,8 +608,8 @@ pub fn diagnose(
                         p = q;
                     }
                 }
-                let (p1, _) = calibrate::coarse_search(&p, &ks, &wdata, 1);
-                let fit = calibrate::levenberg_marquardt_with(&p1, &ks, &wdata, 8);
+                let (p1, _) = calibrate::coarse_search(&p, &ks, &rdata, 1);
+                let fit = calibrate::polish(&p1, &ks, &wdata, 8);
                 if best.as_ref().is_none_or(|b| fit.cost < b.cost) {
                     best = Some(fit);
                 }
@@ -723,11 +759,12 @@ pub fn diagnose(
             .map(|(o, _)| separating_measurement(chosen.effect, *o, &first.output))
             .unwrap_or_default();
         let nrmse_before = rms_nrmse(cur.cost);
-        let fit = calibrate::levenberg_marquardt(&chosen.fit.params, &chosen.fit.knobs, &wdata);
+        let fit = calibrate::polish(&chosen.fit.params, &chosen.fit.knobs, &wdata, 20);
         // The effect can change where the model is predictable (mesh damping calms rattle):
-        // weigh again and polish.
+        // weigh again, search locally and polish.
         wdata = weigh(&fit.params, data, opts.predictability);
-        let fit = calibrate::levenberg_marquardt(&fit.params, &fit.knobs, &wdata);
+        let q = calibrate::refine(&fit.params, &fit.knobs, &wdata);
+        let fit = calibrate::polish(&q, &fit.knobs, &wdata, 20);
         let idx = fit.knobs.len() - 1;
         steps.push(Step {
             effect: chosen.effect,

@@ -109,6 +109,9 @@ pub struct Knob {
     pub hi: f64,
     /// Central-difference step in the internal coordinate.
     pub fd_step: f64,
+    /// Its lower bound is a legitimate value, not a sign that the fit wanted to go further:
+    /// a background quantity that may as well be absent ([`background_damping_knob`]).
+    pub floor_ok: bool,
 }
 
 impl Knob {
@@ -236,7 +239,49 @@ pub fn knob(p: &ActuatorParams, param: Param, max_abs_v: f64) -> Knob {
         lo,
         hi,
         fd_step,
+        floor_ok: false,
     }
+}
+
+/// The mesh damping every real gear train has, as shares of the gear mode's critical damping
+/// 2 √(k_eq J_m' J_L / (J_m' + J_L)) ([`Effect::natural_scale`]): (lowest, start, highest).
+///
+/// The paper's model has none, and with backlash and no damping at all the motion is chaotic
+/// wherever the gears rattle and the resonance bursts of a stepped sine have coexisting
+/// responses (MODEL.md, "Gear rattle"): a model without damping is not a model that can be
+/// calibrated against a rig, whose meshes always dissipate something. So when the file
+/// declares no mesh damping, the default set carries a *background* damping between 0.1 % and
+/// 2 % of critical, starting at 1 % — the lightly damped end of steel spur meshes, whose
+/// damping ratios are 3–17 % of critical (the registry's comment on `mesh_damping`). A rig
+/// that needs more than 2 % has a mesh damping worth naming: `diagnose` then offers the
+/// `mesh_damping` effect with its whole range, judged like every other effect.
+pub const BACKGROUND_DAMPING: (f64, f64, f64) = (0.001, 0.01, 0.02);
+
+/// The knob of the background mesh damping for `p` ([`BACKGROUND_DAMPING`]).
+pub fn background_damping_knob(p: &ActuatorParams, max_abs_v: f64) -> Knob {
+    let c = effect_scale(p, Effect::MeshDamping, max_abs_v);
+    let (lo, _, hi) = BACKGROUND_DAMPING;
+    Knob {
+        param: Param::Effect(Effect::MeshDamping),
+        log: true,
+        lo: lo * c,
+        hi: hi * c,
+        fd_step: 0.02,
+        floor_ok: true,
+    }
+}
+
+/// `p` with the background mesh damping's starting value when it declares none
+/// ([`BACKGROUND_DAMPING`]); `None` when it declares one (then its value is the start and the
+/// default set does not carry the background knob).
+pub fn with_background_damping(p: &ActuatorParams, max_abs_v: f64) -> Option<ActuatorParams> {
+    if p.effects.mesh_damping != 0.0 {
+        return None;
+    }
+    let mut q = *p;
+    let c = effect_scale(p, Effect::MeshDamping, max_abs_v);
+    q.effects.mesh_damping = BACKGROUND_DAMPING.1 * c;
+    q.derived().ok().map(|_| q)
 }
 
 /// Values of `effect` (whose knob is `k`) that a search tries first, for the effects whose
