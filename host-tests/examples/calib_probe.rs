@@ -75,6 +75,18 @@ fn main() {
         .unwrap_or(vec![0]);
     for draw in draws {
         let c = foreign::case(kind, draw).unwrap();
+        if std::env::var("SMOOTH").is_ok() {
+            smooth(&c);
+            continue;
+        }
+        if std::env::var("WIDTHS").is_ok() {
+            widths(&c);
+            continue;
+        }
+        if std::env::var("BASE_ONLY").is_ok() {
+            base_only(&c);
+            continue;
+        }
         let d = &c.estimation;
         let sigma = noise::sigma(&d.y);
         let te = eq_truth(&c);
@@ -143,4 +155,146 @@ fn main() {
             fmt(&te, &ft.params)
         );
     }
+}
+
+/// Base calibration only: the global search from the file (+ background damping) on the
+/// weights of the start, against the truth.
+pub fn base_only(c: &foreign::ForeignCase) {
+    let d = &c.estimation;
+    let te = eq_truth(c);
+    let mut file = calibrate::with_measured_stiffness(&c.file).unwrap();
+    file.sample_period_s = d.sample_period_s;
+    let mv = d.max_abs_v();
+    let mut knobs = calibrate::default_knobs(&file, mv);
+    let start = calibrate::with_background_damping(&file, mv).unwrap();
+    knobs.push(calibrate::background_damping_knob(&file, mv));
+    let (w0, _) = predictability::weigh(&start, d);
+    let t0 = Instant::now();
+    let f = calibrate::calibrate(&start, &knobs, std::slice::from_ref(&w0));
+    let (wt, _) = predictability::weigh(&te, d);
+    let t1 = Instant::now();
+    let g = calibrate::calibrate(&start, &knobs, std::slice::from_ref(&wt));
+    println!(
+        "  global on truth weights: {:.4} (truth {:.4}) ({:.1}s) [{}]",
+        g.cost.sqrt(),
+        calibrate::nrmse(&te, &wt),
+        t1.elapsed().as_secs_f64(),
+        fmt(&te, &g.params)
+    );
+    // iterate: reweigh under the fit, global again from it
+    let mut p = f.params;
+    for i in 0..3 {
+        let (wi, _) = predictability::weigh(&p, d);
+        let h = calibrate::calibrate(&p, &knobs, std::slice::from_ref(&wi));
+        p = h.params;
+        println!(
+            "  iter {i}: {:.4} on its weights (truth {:.4}); on truth weights {:.4} [{}]",
+            h.cost.sqrt(),
+            calibrate::nrmse(&te, &wi),
+            calibrate::nrmse(&p, &wt),
+            fmt(&te, &p)
+        );
+    }
+    println!(
+        "BASE {}: {:.4} on w0 (truth {:.4}) ({:.1}s) on truth weights {:.4} (truth {:.4}) [{}]",
+        c.label(),
+        f.cost.sqrt(),
+        calibrate::nrmse(&te, &w0),
+        t0.elapsed().as_secs_f64(),
+        calibrate::nrmse(&f.params, &wt),
+        calibrate::nrmse(&te, &wt),
+        fmt(&te, &f.params)
+    );
+}
+
+/// Width of the truth's basin: the robust cost on the truth's weights with one knob moved.
+pub fn widths(c: &foreign::ForeignCase) {
+    let d = &c.estimation;
+    let te = eq_truth(c);
+    let mv = d.max_abs_v();
+    let mut knobs = calibrate::default_knobs(&te, mv);
+    knobs.push(calibrate::knob(
+        &te,
+        Param::Effect(geared_servo::Effect::MeshDamping),
+        mv,
+    ));
+    let (wt, _) = predictability::weigh(&te, d);
+    let r = calibrate::robust(std::slice::from_ref(&wt));
+    println!(
+        "WIDTHS {} truth robust {:.4} plain {:.4}",
+        c.label(),
+        calibrate::cost(&te, &r).sqrt(),
+        calibrate::nrmse(&te, &wt)
+    );
+    for k in &knobs {
+        let v = calibrate::get(&te, k.param);
+        let row: Vec<String> = [
+            -0.1, -0.05, -0.02, -0.01, -0.005, 0.005, 0.01, 0.02, 0.05, 0.1,
+        ]
+        .iter()
+        .map(|f| {
+            let mut q = te;
+            calibrate::set(&mut q, k.param, v * (1.0 + f));
+            format!(
+                "{:+.3}:{:.3}/{:.3}",
+                f,
+                calibrate::cost(&q, &r).sqrt(),
+                calibrate::nrmse(&q, &wt)
+            )
+        })
+        .collect();
+        println!("  {:28} {}", k.name(), row.join(" "));
+    }
+}
+
+/// The smoothness test: kept share at the truth, and a calibration on smooth rows.
+pub fn smooth(c: &foreign::ForeignCase) {
+    let d = &c.estimation;
+    let te = eq_truth(c);
+    let sigma = noise::sigma(&d.y);
+    let s = predictability::Smoothness::default();
+    let fl = |w: &calibrate::Data| noise::floor_nrmse(sigma, &w.weight, w.norm);
+    let prt = predictability::assess_smooth(&te, d, &s, sigma);
+    let wt = d.with_weights(&prt.weight);
+    println!(
+        "SMOOTH {}: at truth excl {:.2}, truth {:.4} floor {:.4}",
+        c.label(),
+        prt.excluded_share,
+        calibrate::nrmse(&te, &wt),
+        fl(&wt)
+    );
+    let mut file = calibrate::with_measured_stiffness(&c.file).unwrap();
+    file.sample_period_s = d.sample_period_s;
+    let mv = d.max_abs_v();
+    let mut knobs = calibrate::default_knobs(&file, mv);
+    let start = calibrate::with_background_damping(&file, mv).unwrap();
+    knobs.push(calibrate::background_damping_knob(&file, mv));
+    let mut p = start;
+    for i in 0..3 {
+        let t0 = Instant::now();
+        let pr = predictability::assess_smooth(&p, d, &s, sigma);
+        let w = d.with_weights(&pr.weight);
+        let f = if i == 0 {
+            calibrate::calibrate(&p, &knobs, std::slice::from_ref(&w))
+        } else {
+            calibrate::polish(
+                &calibrate::refine(&p, &knobs, std::slice::from_ref(&w)),
+                &knobs,
+                std::slice::from_ref(&w),
+                20,
+            )
+        };
+        p = f.params;
+        println!("  iter {i}: excl {:.2} fit {:.4} truth {:.4} floor {:.4} on truth-smooth rows: fit {:.4} ({:.1}s) [{}]", pr.excluded_share, f.cost.sqrt(), calibrate::nrmse(&te, &w), fl(&w), calibrate::nrmse(&p, &wt), t0.elapsed().as_secs_f64(), fmt(&te, &p));
+    }
+    let (wf, prf) = predictability::weigh(&p, d);
+    let f = calibrate::polish(&p, &knobs, std::slice::from_ref(&wf), 20);
+    println!(
+        "  fine weights at the fit: excl {:.2} polish {:.4} truth {:.4} floor {:.4} [{}]",
+        prf.excluded_share,
+        f.cost.sqrt(),
+        calibrate::nrmse(&te, &wf),
+        fl(&wf),
+        fmt(&te, &f.params)
+    );
 }

@@ -172,15 +172,27 @@ pub fn assess_with(p: &ActuatorParams, d: &Data, s: &Settings) -> Predictability
     // a span runs from the first window over the line until the model is quiet (a rest) or
     // the spread has stayed under a quarter of the line for three windows.
     let line = s.threshold.powi(2);
+    let flags: Vec<(bool, bool, bool)> = stats
+        .iter()
+        .map(|&(ratio, quiet)| (ratio > line, ratio < line / 16.0, quiet))
+        .collect();
+    spans_from(&flags, w, n)
+}
+
+/// Row weights from per-window flags (over the line, calm, quiet), windows of `w` rows over
+/// `n` rows: a span starts at a window over the line and lasts until the model is quiet or
+/// three windows in a row are calm; it is widened by one window on each side.
+fn spans_from(flags: &[(bool, bool, bool)], w: usize, n: usize) -> Predictability {
+    let windows = flags.len();
     let mut bad = vec![false; windows];
     let mut inside = false;
     let mut calm = 0usize;
-    for (j, &(ratio, quiet)) in stats.iter().enumerate() {
-        if ratio > line {
+    for (j, &(over, is_calm, quiet)) in flags.iter().enumerate() {
+        if over {
             inside = true;
             calm = 0;
         } else if inside {
-            calm = if ratio < line / 16.0 { calm + 1 } else { 0 };
+            calm = if is_calm { calm + 1 } else { 0 };
             if quiet || calm >= 3 {
                 inside = false;
             }
@@ -213,12 +225,148 @@ pub fn assess_with(p: &ActuatorParams, d: &Data, s: &Settings) -> Predictability
             _ => spans.push((lo, hi)),
         }
     }
-    let excluded = weight.iter().filter(|x| **x < 0.5).count() as f64 / n as f64;
+    let excluded = weight.iter().filter(|x| **x < 0.5).count() as f64 / n.max(1) as f64;
     Predictability {
         weight,
         excluded_share: excluded,
         spans,
     }
+}
+
+/// Settings of the smoothness test ([`assess_smooth`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Smoothness {
+    /// Relative step of the inertias and the stiffness in each antithetic pair.
+    pub inertia_step: f64,
+    /// Relative step of the frictions, the backlash and the mesh damping.
+    pub friction_step: f64,
+    /// Antithetic pairs (at most 4: the Hadamard columns of [`MOVES`]).
+    pub pairs: usize,
+    /// Window, s.
+    pub window_s: f64,
+    /// A window is rough when its even (curvature) part exceeds this share of the whole
+    /// change.
+    pub even_share: f64,
+    /// ... and the change is at least this many noise standard deviations (RMS per row).
+    pub min_change_sigmas: f64,
+}
+
+impl Default for Smoothness {
+    fn default() -> Self {
+        Smoothness {
+            inertia_step: 0.02,
+            friction_step: 0.05,
+            pairs: 4,
+            window_s: 0.025,
+            even_share: 0.35,
+            min_change_sigmas: 0.5,
+        }
+    }
+}
+
+/// `p` moved along Hadamard column `m` with `sign` (±1) by the steps of `s`, the mesh damping
+/// with the frictions.
+fn moved(p: &ActuatorParams, m: usize, sign: f64, s: &Smoothness) -> ActuatorParams {
+    let mut q = *p;
+    let mesh_sign = [1.0, -1.0, -1.0, 1.0];
+    let list = MOVES
+        .iter()
+        .map(|&(param, inertial, signs)| (param, inertial, signs))
+        .chain(std::iter::once((
+            Param::Effect(geared_servo::Effect::MeshDamping),
+            false,
+            mesh_sign,
+        )));
+    for (param, inertial, signs) in list {
+        let step = if inertial {
+            s.inertia_step
+        } else {
+            s.friction_step
+        };
+        let v = calibrate::get(p, param);
+        if v.is_finite() && v > 0.0 {
+            let d = sign * signs.get(m % 4).copied().unwrap_or(1.0);
+            calibrate::set(&mut q, param, v * (1.0 + d * step));
+        }
+    }
+    q
+}
+
+/// Where the model's output is a *smooth* function of its parameters over the accuracy a
+/// calibration can reach: antithetic pairs p ± δ (inertias and stiffness by 2 %, frictions,
+/// backlash and mesh damping by 5 %, Hadamard sign patterns). Per window the change splits
+/// into an odd part (y₊ − y₋)/2, what a linear response gives, and an even part
+/// (y₊ + y₋)/2 − y₀, which a linear response does not have. Where the gears rattle
+/// chaotically, or a resonance burst can settle on either of two coexisting responses, the
+/// three runs are unrelated and the even part is as large as the odd one; where the motion
+/// is smooth in the parameters it is a small curvature. A window is rough when the even part
+/// exceeds [`Smoothness::even_share`] of the change and the change is at least
+/// [`Smoothness::min_change_sigmas`] noise standard deviations (`sigma`); spans of rough
+/// windows are weighted out as in [`assess_with`].
+///
+/// This is the test for fitting from afar: on rows that are rough at the scale of a few
+/// percent a search sees a patchwork of basins, and two units that differ by that much (or
+/// one unit whose temperature changes) do not agree there sample by sample.
+pub fn assess_smooth(p: &ActuatorParams, d: &Data, s: &Smoothness, sigma: f64) -> Predictability {
+    let n = d.y.len();
+    let Some(center) = calibrate::simulate(p, d) else {
+        return Predictability::all(n);
+    };
+    let runs: Vec<(Vec<f64>, Vec<f64>)> = (0..s.pairs.clamp(1, 4))
+        .into_par_iter()
+        .filter_map(|m| {
+            let a = calibrate::simulate(&moved(p, m, 1.0, s), d)?.y;
+            let b = calibrate::simulate(&moved(p, m, -1.0, s), d)?.y;
+            Some((a, b))
+        })
+        .collect();
+    if runs.is_empty() || n == 0 {
+        return Predictability::all(n);
+    }
+    let w = ((s.window_s / d.sample_period_s).round() as usize).max(4);
+    let windows = n.div_ceil(w);
+    let global_ms = center.y.iter().map(|v| v * v).sum::<f64>() / n as f64;
+    let flags: Vec<(bool, bool, bool)> = (0..windows)
+        .map(|j| {
+            let lo = j * w;
+            let hi = (lo + w).min(n);
+            let (mut odd, mut even) = (0.0, 0.0);
+            for (a, b) in &runs {
+                for k in lo..hi {
+                    let c = center.y.get(k).copied().unwrap_or(0.0);
+                    let (ya, yb) = (
+                        a.get(k).copied().unwrap_or(c),
+                        b.get(k).copied().unwrap_or(c),
+                    );
+                    odd += (0.5 * (ya - yb)).powi(2);
+                    even += (0.5 * (ya + yb) - c).powi(2);
+                }
+            }
+            let rows = ((hi - lo) * runs.len()).max(1) as f64;
+            let change = (odd + even) / rows;
+            let sig = center
+                .y
+                .get(lo..hi)
+                .unwrap_or(&[])
+                .iter()
+                .map(|v| v * v)
+                .sum::<f64>()
+                / (hi - lo).max(1) as f64;
+            let quiet = sig < 0.02f64.powi(2) * global_ms;
+            let material = change > (s.min_change_sigmas * sigma).powi(2);
+            let rough = material && even > s.even_share * (odd + even);
+            let calm = !material || even < 0.25 * s.even_share * (odd + even);
+            (rough, calm, quiet)
+        })
+        .collect();
+    spans_from(&flags, w, n)
+}
+
+/// `d` weighted by its smoothness under `p` ([`assess_smooth`] with the default settings and
+/// the record's own noise level, [`crate::noise::sigma`]).
+pub fn weigh_smooth(p: &ActuatorParams, d: &Data) -> (Data, Predictability) {
+    let pr = assess_smooth(p, d, &Smoothness::default(), crate::noise::sigma(&d.y));
+    (d.with_weights(&pr.weight), pr)
 }
 
 /// `d` weighted by its predictability under `p`.
