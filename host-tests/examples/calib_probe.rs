@@ -129,6 +129,10 @@ fn main() {
             wt.excluded_share(),
             calibrate::nrmse(&out.final_fit.params, &wt)
         );
+        with_expected(&c, &out);
+        if std::env::var("QUICK").is_ok() {
+            continue;
+        }
         let knobs = out.final_fit.knobs.clone();
         let t1 = Instant::now();
         let g = calibrate::calibrate(&out.final_fit.params, &knobs, std::slice::from_ref(&w));
@@ -296,5 +300,35 @@ pub fn smooth(c: &foreign::ForeignCase) {
         calibrate::nrmse(&te, &wf),
         fl(&wf),
         fmt(&te, &f.params)
+    );
+}
+
+/// Debug: the expected effects set on the final fit, costs before and after a polish.
+pub fn with_expected(c: &foreign::ForeignCase, out: &geared_servo_host::diagnose::Outcome) {
+    let d = &c.estimation;
+    let w = d.with_weights(&out.weights[0]);
+    let mut q = out.final_fit.params;
+    let mut knobs = out.final_fit.knobs.clone();
+    for &(e, v) in &c.expected {
+        q.effects.set(e, c.expected_fitted(e, v));
+        knobs.push(calibrate::knob(
+            &out.final_fit.params,
+            Param::Effect(e),
+            d.max_abs_v(),
+        ));
+    }
+    let r = calibrate::robust(std::slice::from_ref(&w));
+    println!(
+        "  final: plain {:.4} robust {:.4}; with expected effects: plain {:.4} robust {:.4}",
+        calibrate::nrmse(&out.final_fit.params, &w),
+        calibrate::cost(&out.final_fit.params, &r).sqrt(),
+        calibrate::nrmse(&q, &w),
+        calibrate::cost(&q, &r).sqrt()
+    );
+    let f = calibrate::polish(&q, &knobs, std::slice::from_ref(&w), 20);
+    println!(
+        "  polished with them: plain {:.4} values {:?}",
+        f.cost.sqrt(),
+        f.values
     );
 }

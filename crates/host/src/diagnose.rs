@@ -279,6 +279,43 @@ fn settle(
     (fit, w)
 }
 
+/// The better of two fits, each with its records weighted by its own predictability, judged
+/// on the rows both keep (the rows are the fit's own, and a fit must not win by having
+/// weighted out rows the other follows). Returns the winner with its own rows, and whether
+/// it is `b`.
+fn better_on_common(
+    a: (Fit, Vec<Data>),
+    b: (Fit, Vec<Data>),
+    data: &[Data],
+) -> (Fit, Vec<Data>, bool) {
+    let common: Vec<Data> = data
+        .iter()
+        .zip(a.1.iter().zip(&b.1))
+        .map(|(d, (x, y))| {
+            let w: Vec<f64> = x
+                .weight
+                .iter()
+                .zip(&y.weight)
+                .map(|(p, q)| p.min(*q))
+                .collect();
+            d.with_weights(&w)
+        })
+        .collect();
+    if calibrate::cost(&b.0.params, &common) < calibrate::cost(&a.0.params, &common) {
+        (b.0, b.1, true)
+    } else {
+        (a.0, a.1, false)
+    }
+}
+
+/// Least share of a refit's gain that must be lost when its effect alone is switched off
+/// again (the ablation test of a candidate).
+const OWN_SHARE: f64 = 0.5;
+
+/// Share of what the best candidate explains (its cost reduction) that another must explain
+/// to be reported as indistinguishable from it.
+const EQUIVALENT_SHARE: f64 = 0.9;
+
 /// Rounds of [`settle`] on the smooth rows: measured on the foreign suite's clean units,
 /// the first (global) round lands within a few percent and the rows it keeps still include
 /// some that are rough at the truth; two more rounds bring the inertias and the stiffness
@@ -312,26 +349,85 @@ fn implausibility(effect: Effect, v: f64, slack: f64) -> f64 {
     out / slack.ln().max(1e-9)
 }
 
-/// What would separate `a` from `b` when a record cannot.
+/// Pairs of effects that records of one output at one amplitude often cannot tell apart,
+/// with what would separate them: the one list the search and the report use. When one of
+/// a pair is among the candidates refitted, so is the other, so that a tie is reported as a
+/// tie, not decided by which of the two the projection happened to rank higher.
+pub const KIN: [(Effect, Effect, &str); 9] = [
+    (
+        Effect::TachGain,
+        Effect::MotorViscous,
+        "log the armature current (viscous friction draws current, a sensor error does not), or record the load angle with an independent sensor",
+    ),
+    (
+        Effect::TachGain,
+        Effect::LoadViscous,
+        "log the armature current (viscous friction draws current, a sensor error does not), or record the load angle with an independent sensor",
+    ),
+    (
+        Effect::MotorViscous,
+        Effect::LoadViscous,
+        "a stepped sine with more periods through the anti-resonance, or a record of the load angle (the two damp different masses)",
+    ),
+    (
+        Effect::MeshDamping,
+        Effect::LoadViscous,
+        "a stepped sine at two amplitudes through the resonance (mesh damping acts only in contact)",
+    ),
+    (
+        Effect::MeshDamping,
+        Effect::MotorViscous,
+        "a stepped sine at two amplitudes through the resonance (mesh damping acts only in contact)",
+    ),
+    (
+        Effect::HingeStiffness,
+        Effect::GravityTorque,
+        "a record with large load angles, or one that starts away from the hanging position (a spring is linear in the angle, gravity goes as its sine)",
+    ),
+    (
+        Effect::InputDelay,
+        Effect::TachLag,
+        "a stepped sine well above 1/(2π τ) (a lag's phase stops at 90°, a delay's grows without bound), or a record of the load angle (a tachometer lag does not delay it)",
+    ),
+    (
+        Effect::InputDelay,
+        Effect::VoltageLimit,
+        "records at two amplitudes (saturation depends on the amplitude, a delay or a gain error does not)",
+    ),
+    (
+        Effect::VoltageLimit,
+        Effect::TachGain,
+        "records at two amplitudes (saturation depends on the amplitude, a delay or a gain error does not)",
+    ),
+];
+
+/// The effects paired with `e` in [`KIN`].
+pub fn kin(e: Effect) -> Vec<Effect> {
+    KIN.iter()
+        .filter_map(|&(a, b, _)| {
+            if a == e {
+                Some(b)
+            } else if b == e {
+                Some(a)
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
+/// What would separate `a` from `b` when a record cannot ([`KIN`], or a general advice).
 pub fn separating_measurement(a: Effect, b: Effect, output: &str) -> String {
-    use Effect::*;
-    let pair = |x: Effect, y: Effect| (a == x && b == y) || (a == y && b == x);
-    let current = if output == "current_a" {
-        ""
-    } else {
-        "log the armature current (viscous friction draws current, a sensor error does not); "
-    };
-    if pair(TachGain, MotorViscous) || pair(TachGain, LoadViscous) {
-        format!("{current}or record the load angle with an independent sensor")
-    } else if pair(MotorViscous, LoadViscous) {
-        "a stepped sine with more periods through the anti-resonance, or a record of the load angle (the two damp different masses)".to_string()
-    } else if pair(InputDelay, VoltageLimit) || pair(VoltageLimit, TachGain) {
-        "records at two amplitudes (saturation depends on the amplitude, a delay or a gain error does not)".to_string()
-    } else if pair(MeshDamping, LoadViscous) || pair(MeshDamping, MotorViscous) {
-        "a stepped sine at two amplitudes through the resonance (mesh damping acts only in contact)"
-            .to_string()
-    } else {
-        "records at two amplitudes and of other outputs (current, load angle)".to_string()
+    let found = KIN
+        .iter()
+        .find(|&&(x, y, _)| (a == x && b == y) || (a == y && b == x))
+        .map(|&(_, _, m)| m.to_string());
+    match found {
+        // A record of the current already has it: the rest of the advice holds.
+        Some(m) if output == "current_a" => m
+            .replace("log the armature current (viscous friction draws current, a sensor error does not), or ", ""),
+        Some(m) => m,
+        None => "records at two amplitudes and of other outputs (current, load angle)".to_string(),
     }
 }
 
@@ -580,6 +676,7 @@ pub fn diagnose(
     let material = |c: f64, data: &[Data]| -> bool {
         c > opts.material_ratio.powi(2) * floor_cost(data, &sigma)
     };
+    let mut resettled = false;
     while steps.len() < opts.max_steps && material(cur.cost, &wdata) {
         let floor = floor_cost(&wdata, &sigma);
         // The rows a search from afar can use, under the current fit: a candidate's refit
@@ -624,6 +721,11 @@ pub fn diagnose(
         last_scores = score_list.clone();
         let poor = cur.cost > opts.poor_ratio.powi(2) * floor;
         let take = if poor { scores.len() } else { opts.refit_top };
+        let top: Vec<Effect> = scores.iter().take(take).map(|x| x.0).collect();
+        let refitted: Vec<&(Effect, Knob, f64, f64)> = scores
+            .iter()
+            .filter(|x| top.contains(&x.0) || top.iter().any(|&t| kin(t).contains(&x.0)))
+            .collect();
         // The file's values with the effects added so far: a second start when a missing
         // effect has dragged the current fit off (to a bound, or far above the floor).
         let mut from_file = nominal;
@@ -635,7 +737,7 @@ pub fn diagnose(
         let cur_bounds = calibrate::at_bounds(&cur);
         let two_starts = poor || !cur_bounds.is_empty();
         let mut judged: Vec<Judged> = Vec::new();
-        for (e, k, _, v) in scores.iter().take(take) {
+        for (e, k, _, v) in refitted.iter().map(|x| (&x.0, &x.1, &x.2, &x.3)) {
             let mut ks: Vec<Knob> = cur
                 .knobs
                 .iter()
@@ -705,12 +807,47 @@ pub fn diagnose(
             // A refit that needs another parameter at a bound of the calibration (30 times
             // the file's value or a thirtieth) is the model bending to stand in for something
             // else, not an explanation.
+            // The background damping at its upper end is no such sign: the data want more
+            // damping, which the mesh_damping candidate offers.
+            let background_names: Vec<&str> = cur
+                .knobs
+                .iter()
+                .filter(|k| k.floor_ok)
+                .map(|k| k.name())
+                .collect();
             let new_bounds: Vec<String> = calibrate::at_bounds(&fit)
                 .into_iter()
-                .filter(|n| !cur_bounds.contains(n))
+                .filter(|n| !cur_bounds.contains(n) && !background_names.contains(&n.as_str()))
                 .collect();
-            let admissible = if delta_bic.is_nan() || delta_bic >= opts.bic_threshold {
+            // A background quantity released to its whole range that stays inside the
+            // background's range is the background, not an effect.
+            let within_background = cur
+                .knobs
+                .iter()
+                .find(|x| x.floor_ok && x.param == k.param)
+                .map(|x| value <= x.hi * 1.01);
+            // Ablation: the effect switched back to what the current model has (off, or the
+            // background), everything else as refitted. A refit whose gain survives that came
+            // from moving the other parameters (a better point of the base set, or a limit
+            // above every command), not from the effect.
+            let own_share = {
+                let mut q = fit.params;
+                calibrate::set(&mut q, k.param, calibrate::get(&cur.params, k.param));
+                let ablated = calibrate::cost(&q, &wdata);
+                (ablated - fit.cost) / (cur.cost - fit.cost).max(f64::MIN_POSITIVE)
+            };
+            let admissible = if within_background == Some(true) {
+                Err(format!(
+                    "{value:.4e} {} is within the background every gear train has (calibrate::BACKGROUND_DAMPING)",
+                    e.unit()
+                ))
+            } else if delta_bic.is_nan() || delta_bic >= opts.bic_threshold {
                 Err(format!("did not earn its parameter (ΔBIC {delta_bic:.1})"))
+            } else if own_share < OWN_SHARE {
+                Err(format!(
+                    "switched off again it keeps {:.0} % of its gain: the other parameters made it",
+                    100.0 * (1.0 - own_share.max(0.0))
+                ))
             } else if cur.cost - fit.cost < opts.min_excess_share * (cur.cost - floor) {
                 Err(format!(
                     "explains {:.0} % of the error above the noise floor (needs {:.0} %)",
@@ -750,11 +887,16 @@ pub fn diagnose(
             .filter(|j| j.admissible.is_ok())
             .map(|j| (j.fit.cost, j.n_eff))
             .fold((f64::INFINITY, 2.0), |b, x| if x.0 < b.0 { x } else { b });
+        // Indistinguishable: within the BIC threshold of the best, or explaining at least
+        // EQUIVALENT_SHARE of what the best explains above the current fit (with 10⁴ samples
+        // a difference can be significant and still immaterial: a spring and gravity at
+        // small angles, a lag and a delay at low frequencies).
         let mut class: Vec<usize> = (0..judged.len())
             .filter(|&i| {
                 judged.get(i).is_some_and(|j| {
                     j.admissible.is_ok()
-                        && n_eff * (j.fit.cost / best_adm).ln() < -opts.bic_threshold
+                        && (n_eff * (j.fit.cost / best_adm).ln() < -opts.bic_threshold
+                            || cur.cost - j.fit.cost >= EQUIVALENT_SHARE * (cur.cost - best_adm))
                 })
             })
             .collect();
@@ -816,6 +958,24 @@ pub fn diagnose(
                 });
             }
             rejected.sort_by(|a, b| a.nrmse_after.total_cmp(&b.nrmse_after));
+            // Before giving up, settle the current model once more from where it is, globally:
+            // a base bent by a missing effect can sit in a basin from which no single
+            // candidate's refit climbs out, and a better basin changes what the candidates
+            // see.
+            if !resettled {
+                resettled = true;
+                let (g, w) = settle(&cur.params, &cur.knobs, data, opts.predictability, true);
+                let (c2, w2, better) = better_on_common((cur.clone(), wdata.clone()), (g, w), data);
+                if better {
+                    let (cost_start, moved) = (cur.cost_start, cur.moved);
+                    cur = c2;
+                    cur.cost_start = cost_start;
+                    cur.moved = moved;
+                    wdata = w2;
+                    rejected.clear();
+                    continue;
+                }
+            }
             break;
         };
         rejected.clear();
@@ -837,7 +997,15 @@ pub fn diagnose(
             &chosen.fit.knobs,
             data,
             opts.predictability,
-            false,
+            true,
+        );
+        let (fit, w, _) = better_on_common(
+            (
+                calibrate::polish(&chosen.fit.params, &chosen.fit.knobs, &wdata, 8),
+                wdata,
+            ),
+            (fit, w),
+            data,
         );
         wdata = w;
         let idx = fit.knobs.len() - 1;
