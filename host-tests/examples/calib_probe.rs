@@ -75,6 +75,30 @@ fn main() {
         .unwrap_or(vec![0]);
     for draw in draws {
         let c = foreign::case(kind, draw).unwrap();
+        if std::env::var("PICKUP").is_ok() {
+            pickup(&c);
+            continue;
+        }
+        if std::env::var("KEPT").is_ok() {
+            kept_bursts(&c);
+            continue;
+        }
+        if std::env::var("ENSEMBLES").is_ok() {
+            ensembles(&c);
+            continue;
+        }
+        if std::env::var("SIMTIME").is_ok() {
+            sim_time(&c);
+            continue;
+        }
+        if std::env::var("BURSTS").is_ok() {
+            bursts(&c);
+            continue;
+        }
+        if std::env::var("VISIBILITY").is_ok() {
+            visibility(&c);
+            continue;
+        }
         if std::env::var("SMOOTH").is_ok() {
             smooth(&c);
             continue;
@@ -331,4 +355,189 @@ pub fn with_expected(c: &foreign::ForeignCase, out: &geared_servo_host::diagnose
         f.cost.sqrt(),
         f.values
     );
+}
+
+/// How visible the hidden effects are: the truth with and without them on the truth's rows.
+pub fn visibility(c: &foreign::ForeignCase) {
+    let d = &c.estimation;
+    let te = eq_truth(c);
+    let mut without = te;
+    for &(e, _) in &c.expected {
+        without.effects.set(e, 0.0);
+    }
+    let (wt, _) = predictability::weigh(&te, d);
+    let sigma = noise::sigma(&d.y);
+    let v = &c.validation;
+    let (wv, _) = predictability::weigh(&te, v);
+    println!(
+        "VISIBILITY {}: estimation rows {:.2}: with {:.4} without {:.4} floor {:.4}; validation rows {:.2}: with {:.4} without {:.4}",
+        c.label(), 1.0 - wt.excluded_share(),
+        calibrate::nrmse(&te, &wt), calibrate::nrmse(&without, &wt), noise::floor_nrmse(sigma, &wt.weight, wt.norm),
+        1.0 - wv.excluded_share(), calibrate::nrmse(&te, &wv), calibrate::nrmse(&without, &wv)
+    );
+}
+
+/// Per burst: the emulator at the truth against the clean reference record, and against a
+/// copy of itself with the load inertia moved by 1e-6 (chaos).
+pub fn bursts(c: &foreign::ForeignCase) {
+    let ss = foreign::SteppedSine::default();
+    let v = ss.volts(foreign::SAMPLE_PERIOD_S);
+    let (clean, _) =
+        foreign::reference_run(&c.truth, c.second_mode.as_ref(), &v, foreign::FINE_STEP_S).unwrap();
+    let mut t = c.truth;
+    t.sample_period_s = foreign::SAMPLE_PERIOD_S;
+    let em = calibrate::simulate(&t, &c.estimation).unwrap().y;
+    let mut q = t;
+    q.load.inertia_kg_m2 *= 1.000001;
+    let em2 = calibrate::simulate(&q, &c.estimation).unwrap().y;
+    let (nb, nr) = ss.period_samples(foreign::SAMPLE_PERIOD_S);
+    let per = nb + nr;
+    let rel = |a: &[f64], b: &[f64]| {
+        let e: f64 = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum();
+        let n: f64 = b.iter().map(|y| y * y).sum();
+        (e / n.max(1e-30)).sqrt()
+    };
+    let line: Vec<String> = (0..ss.bursts)
+        .map(|i| {
+            let r = i * per..(i + 1) * per;
+            format!(
+                "{:.0}:{:.3}/{:.3}",
+                ss.frequency_hz(i),
+                rel(&em[r.clone()], &clean[r.clone()]),
+                rel(&em2[r.clone()], &em[r])
+            )
+        })
+        .collect();
+    println!(
+        "BURSTS {} (f: emulator-vs-reference / emulator-vs-1e-6): {}",
+        c.label(),
+        line.join(" ")
+    );
+}
+
+/// Time of one simulation of the estimation record.
+pub fn sim_time(c: &foreign::ForeignCase) {
+    let mut t = c.truth;
+    t.sample_period_s = foreign::SAMPLE_PERIOD_S;
+    let t0 = Instant::now();
+    let mut s = 0.0;
+    for _ in 0..100 {
+        s += calibrate::simulate(&t, &c.estimation).unwrap().y[1000];
+    }
+    let dt = t0.elapsed().as_secs_f64() / 100.0;
+    println!(
+        "SIM {}: {:.2} ms per run of {} rows ({:.0} ns/step) {s}",
+        c.label(),
+        dt * 1e3,
+        c.estimation.y.len(),
+        dt * 1e9 / c.estimation.y.len() as f64
+    );
+}
+
+/// The truth on the rows each predictability setting keeps, over the floor.
+pub fn ensembles(c: &foreign::ForeignCase) {
+    let d = &c.estimation;
+    let te = eq_truth(c);
+    let sigma = noise::sigma(&d.y);
+    let mut line = String::new();
+    for (a, b, th) in [(1e-3, 5e-3, 0.05), (1e-2, 5e-2, 0.1)] {
+        let s = predictability::Settings {
+            inertia_perturbation: a,
+            friction_perturbation: b,
+            threshold: th,
+            ..Default::default()
+        };
+        let pr = predictability::assess_with(&te, d, &s);
+        let w = d.with_weights(&pr.weight);
+        let fl = noise::floor_nrmse(sigma, &w.weight, w.norm);
+        line += &format!(
+            " [{a:.0e},{b:.0e},{th}]: kept {:.2} ratio {:.2}",
+            1.0 - pr.excluded_share,
+            calibrate::nrmse(&te, &w) / fl
+        );
+    }
+    let a = predictability::assess_with(&te, d, &predictability::Settings::default());
+    let b = predictability::assess_with(
+        &te,
+        d,
+        &predictability::Settings {
+            inertia_perturbation: 1e-2,
+            friction_perturbation: 5e-2,
+            threshold: 0.1,
+            ..Default::default()
+        },
+    );
+    let u: Vec<f64> = a
+        .weight
+        .iter()
+        .zip(&b.weight)
+        .map(|(x, y)| x.min(*y))
+        .collect();
+    let w = d.with_weights(&u);
+    let fl = noise::floor_nrmse(sigma, &w.weight, w.norm);
+    line += &format!(
+        " union: kept {:.2} ratio {:.2}",
+        1.0 - w.excluded_share(),
+        calibrate::nrmse(&te, &w) / fl
+    );
+    println!("ENSEMBLES {}:{line}", c.label());
+}
+
+/// Per burst at the truth on the kept rows: kept share and residual energy over noise energy.
+pub fn kept_bursts(c: &foreign::ForeignCase) {
+    let d = &c.estimation;
+    let te = eq_truth(c);
+    let sigma = noise::sigma(&d.y);
+    let pr = predictability::assess(&te, d);
+    let em = calibrate::simulate(&te, d).unwrap().y;
+    let ss = foreign::SteppedSine::default();
+    let (nb, nr) = ss.period_samples(foreign::SAMPLE_PERIOD_S);
+    let per = nb + nr;
+    let line: Vec<String> = (0..ss.bursts)
+        .map(|i| {
+            let r = i * per..((i + 1) * per).min(d.y.len());
+            let kept: f64 = pr.weight[r.clone()].iter().sum();
+            let e: f64 = r
+                .clone()
+                .map(|k| pr.weight[k] * (d.y[k] - em[k]).powi(2))
+                .sum();
+            format!(
+                "{:.0}:{:.2}/{:.1}",
+                ss.frequency_hz(i),
+                kept / per as f64,
+                e / (sigma * sigma * kept.max(1.0))
+            )
+        })
+        .collect();
+    println!(
+        "KEPT {} (f: kept share / residual over noise energy): {}",
+        c.label(),
+        line.join(" ")
+    );
+}
+
+/// The current pickup term in the emulator and in the reference.
+pub fn pickup(c: &foreign::ForeignCase) {
+    let ss = foreign::SteppedSine::default();
+    let v = ss.volts(foreign::SAMPLE_PERIOD_S);
+    let mut t = c.truth;
+    t.sample_period_s = foreign::SAMPLE_PERIOD_S;
+    let mut t0 = t;
+    t0.effects.tach_current_coupling = 0.0;
+    let (rw, _) = foreign::reference_run(&t, None, &v, foreign::FINE_STEP_S).unwrap();
+    let (r0, _) = foreign::reference_run(&t0, None, &v, foreign::FINE_STEP_S).unwrap();
+    let ew = calibrate::simulate(&t, &c.estimation).unwrap().y;
+    let e0 = calibrate::simulate(&t0, &c.estimation).unwrap().y;
+    let (nb, nr) = ss.period_samples(foreign::SAMPLE_PERIOD_S);
+    let per = nb + nr;
+    for i in [17usize, 19, 20, 21] {
+        let r = i * per..(i + 1) * per;
+        let dr: Vec<f64> = r.clone().map(|k| rw[k] - r0[k]).collect();
+        let de: Vec<f64> = r.clone().map(|k| ew[k] - e0[k]).collect();
+        let base: Vec<f64> = r.clone().map(|k| e0[k] - r0[k]).collect();
+        let rms = |x: &[f64]| (x.iter().map(|a| a * a).sum::<f64>() / x.len() as f64).sqrt();
+        let diff: Vec<f64> = dr.iter().zip(&de).map(|(a, b)| a - b).collect();
+        let lag: Vec<f64> = (1..de.len()).map(|k| dr[k] - de[k - 1]).collect();
+        println!("PICKUP {} burst {:.0} Hz: rms pickup ref {:.4e} emu {:.4e} diff {:.4e} (vs emu one row late {:.4e}); no-pickup emu-ref {:.4e}; sigma {:.4e}", c.label(), ss.frequency_hz(i), rms(&dr), rms(&de), rms(&diff), rms(&lag), rms(&base), noise::sigma(&c.estimation.y));
+    }
 }

@@ -413,10 +413,13 @@ pub struct Rattle {
 
 impl ForeignCase {
     /// What a calibration with the file's resistance should find for effect `e` of true
-    /// value `v`: `v · s` when it [`scales_with_resistance`], `v` otherwise.
+    /// value `v`: `v · s` when it [`scales_with_resistance`], `v / s` for the tachometer's
+    /// current pickup (the model's current is s times the true one), `v` otherwise.
     pub fn expected_fitted(&self, e: Effect, v: f64) -> f64 {
         if scales_with_resistance(e) {
             v * self.resistance_scale
+        } else if e == Effect::TachCurrentCoupling {
+            v / self.resistance_scale
         } else {
             v
         }

@@ -279,6 +279,23 @@ fn settle(
     (fit, w)
 }
 
+/// `data` weighted by the rows both `a` and `b` keep (the same records, each weighted by one
+/// model's predictability).
+fn common_rows(data: &[Data], a: &[Data], b: &[Data]) -> Vec<Data> {
+    data.iter()
+        .zip(a.iter().zip(b))
+        .map(|(d, (x, y))| {
+            let w: Vec<f64> = x
+                .weight
+                .iter()
+                .zip(&y.weight)
+                .map(|(p, q)| p.min(*q))
+                .collect();
+            d.with_weights(&w)
+        })
+        .collect()
+}
+
 /// The better of two fits, each with its records weighted by its own predictability, judged
 /// on the rows both keep (the rows are the fit's own, and a fit must not win by having
 /// weighted out rows the other follows). Returns the winner with its own rows, and whether
@@ -559,6 +576,12 @@ fn score(
 /// A candidate's full refit, judged.
 struct Judged {
     fit: Fit,
+    /// Its cost over the current model's, on the rows both keep.
+    ratio: f64,
+    /// Those rows.
+    common: Vec<Data>,
+    /// The records weighted by its own predictability.
+    own: Vec<Data>,
     /// Effective sample count of its residual.
     n_eff: f64,
     effect: Effect,
@@ -737,6 +760,8 @@ pub fn diagnose(
         let cur_bounds = calibrate::at_bounds(&cur);
         let two_starts = poor || !cur_bounds.is_empty();
         let mut judged: Vec<Judged> = Vec::new();
+        // Local refits of every candidate taken: (effect, knobs, refit).
+        let mut local: Vec<(Effect, Vec<Knob>, Fit)> = Vec::new();
         for (e, k, _, v) in refitted.iter().map(|x| (&x.0, &x.1, &x.2, &x.3)) {
             let mut ks: Vec<Knob> = cur
                 .knobs
@@ -781,28 +806,57 @@ pub fn diagnose(
                     best = Some(fit);
                 }
             }
-            // Structural search: when the fit is poor, a missing effect has bent it (friction
-            // standing in for viscous damping, say), and a local refit stays in that basin. The
-            // best few candidates are then calibrated globally, like the base set, from the
-            // file's values with the effect at its best grid value.
-            if poor && judged.len() < opts.refit_top {
-                let mut q = from_file;
-                if let Some(b) = &best {
-                    calibrate::set(&mut q, k.param, calibrate::get(&b.params, k.param));
-                }
-                let (g, _) = settle(&q, &ks, data, opts.predictability, true);
-                let g = calibrate::polish(&g.params, &ks, &wdata, 8);
-                if best.as_ref().is_none_or(|b| g.cost < b.cost) {
-                    best = Some(g);
+            if let Some(fit) = best {
+                local.push((*e, ks, fit));
+            }
+        }
+        // Structural search: when the fit is poor, a missing effect has bent it (friction
+        // standing in for viscous damping, say), and a local refit stays in that basin. The
+        // candidates whose local refits did best are then calibrated globally, like the base
+        // set, from the file's values with the effect at its refitted value.
+        if poor {
+            let mut order: Vec<usize> = (0..local.len()).collect();
+            order.sort_by(|&a, &b| local[a].2.cost.total_cmp(&local[b].2.cost));
+            let globals: Vec<(usize, (Fit, Vec<Data>))> = order
+                .iter()
+                .take(opts.refit_top)
+                .filter_map(|&i| {
+                    let (_, ks, f) = local.get(i)?;
+                    let k = ks.last()?;
+                    let mut q = from_file;
+                    calibrate::set(&mut q, k.param, calibrate::get(&f.params, k.param));
+                    Some((i, settle(&q, ks, data, opts.predictability, true)))
+                })
+                .collect();
+            for (i, g) in globals {
+                if let Some(slot) = local.get_mut(i) {
+                    let mine = weigh(&slot.2.params, data, opts.predictability);
+                    let (f, _, _) = better_on_common((slot.2.clone(), mine), g, data);
+                    slot.2 = f;
                 }
             }
-            let Some(fit) = best else { continue };
+        }
+        for (e, ks, fit) in local {
+            let e = &e;
+            let Some(k) = ks.last().cloned() else {
+                continue;
+            };
+            let k = &k;
+            // The candidate is a model of its own, with its own predictable rows: polished
+            // there, and compared with the current model on the rows both keep (a model must
+            // not be judged on rows that another one chose, where it may be the chaotic one).
+            let own = weigh(&fit.params, data, opts.predictability);
+            let fit = calibrate::polish(&fit.params, &ks, &own, 8);
+            let common = common_rows(data, &wdata, &own);
+            let cur_c = calibrate::cost(&cur.params, &common);
+            let fit_c = calibrate::cost(&fit.params, &common);
+            let floor_c = floor_cost(&common, &sigma);
             let value = fit.values.last().copied().unwrap_or(f64::NAN);
             // The samples' effective number is that of the noise, so it is taken from the
             // candidate's residual: the current one is correlated by the very structure the
             // effect would explain (a missing offset makes it a constant).
-            let n_eff = effective_samples(&fit.params, &wdata);
-            let delta_bic = n_eff * (fit.cost / cur.cost).ln() + n_eff.ln();
+            let n_eff = effective_samples(&fit.params, &common);
+            let delta_bic = n_eff * (fit_c / cur_c).ln() + n_eff.ln();
             let imp = implausibility(*e, value, opts.plausibility_slack);
             // A refit that needs another parameter at a bound of the calibration (30 times
             // the file's value or a thirtieth) is the model bending to stand in for something
@@ -833,8 +887,8 @@ pub fn diagnose(
             let own_share = {
                 let mut q = fit.params;
                 calibrate::set(&mut q, k.param, calibrate::get(&cur.params, k.param));
-                let ablated = calibrate::cost(&q, &wdata);
-                (ablated - fit.cost) / (cur.cost - fit.cost).max(f64::MIN_POSITIVE)
+                let ablated = calibrate::cost(&q, &common);
+                (ablated - fit_c) / (cur_c - fit_c).max(f64::MIN_POSITIVE)
             };
             let admissible = if within_background == Some(true) {
                 Err(format!(
@@ -848,10 +902,10 @@ pub fn diagnose(
                     "switched off again it keeps {:.0} % of its gain: the other parameters made it",
                     100.0 * (1.0 - own_share.max(0.0))
                 ))
-            } else if cur.cost - fit.cost < opts.min_excess_share * (cur.cost - floor) {
+            } else if cur_c - fit_c < opts.min_excess_share * (cur_c - floor_c) {
                 Err(format!(
                     "explains {:.0} % of the error above the noise floor (needs {:.0} %)",
-                    100.0 * (cur.cost - fit.cost) / (cur.cost - floor).max(f64::MIN_POSITIVE),
+                    100.0 * (cur_c - fit_c) / (cur_c - floor_c).max(f64::MIN_POSITIVE),
                     100.0 * opts.min_excess_share
                 ))
             } else if imp > 1.0 {
@@ -870,6 +924,9 @@ pub fn diagnose(
             };
             judged.push(Judged {
                 n_eff,
+                ratio: fit_c / cur_c,
+                common,
+                own,
                 distortion: distortion(&cur, &fit),
                 fit,
                 effect: *e,
@@ -879,13 +936,13 @@ pub fn diagnose(
                 implausibility: imp,
             });
         }
-        judged.sort_by(|a, b| a.fit.cost.total_cmp(&b.fit.cost));
+        judged.sort_by(|a, b| a.ratio.total_cmp(&b.ratio));
         // The class of admissible explanations the data cannot tell from the best one,
         // likelier first.
         let (best_adm, n_eff) = judged
             .iter()
             .filter(|j| j.admissible.is_ok())
-            .map(|j| (j.fit.cost, j.n_eff))
+            .map(|j| (j.ratio, j.n_eff))
             .fold((f64::INFINITY, 2.0), |b, x| if x.0 < b.0 { x } else { b });
         // Indistinguishable: within the BIC threshold of the best, or explaining at least
         // EQUIVALENT_SHARE of what the best explains above the current fit (with 10⁴ samples
@@ -895,8 +952,8 @@ pub fn diagnose(
             .filter(|&i| {
                 judged.get(i).is_some_and(|j| {
                     j.admissible.is_ok()
-                        && (n_eff * (j.fit.cost / best_adm).ln() < -opts.bic_threshold
-                            || cur.cost - j.fit.cost >= EQUIVALENT_SHARE * (cur.cost - best_adm))
+                        && (n_eff * (j.ratio / best_adm).ln() < -opts.bic_threshold
+                            || 1.0 - j.ratio >= EQUIVALENT_SHARE * (1.0 - best_adm))
                 })
             })
             .collect();
@@ -907,18 +964,28 @@ pub fn diagnose(
                 .then(ja.distortion.total_cmp(&jb.distortion))
         });
         let vw = val_weighted(&cur.params);
-        let val_before = vw.as_ref().map(|v| calibrate::nrmse(&cur.params, v));
-        let val_floor = match (&vw, val_sigma) {
-            (Some(v), Some(s)) => noise::floor_nrmse(s, &v.weight, v.norm),
-            _ => 0.0,
-        };
         let mut accepted: Option<(usize, (f64, f64))> = None;
         for &i in &class {
             let j = &judged[i];
-            let ho = held_out(&cur, &j.fit, &wdata);
+            let ho = held_out(&cur, &j.fit, &j.common);
             let ho_ok = ho.1 < ho.0;
-            let val_ok = match (&vw, val_before) {
-                (Some(v), Some(a)) => {
+            // The validation record on the rows both models keep.
+            let vc = match (&vw, val_weighted(&j.fit.params)) {
+                (Some(a), Some(b)) => Some(common_rows(
+                    std::slice::from_ref(a),
+                    std::slice::from_ref(a),
+                    std::slice::from_ref(&b),
+                )),
+                _ => None,
+            };
+            let vc = vc.as_ref().and_then(|v| v.first());
+            let val_floor = match (vc, val_sigma) {
+                (Some(v), Some(s)) => noise::floor_nrmse(s, &v.weight, v.norm),
+                _ => 0.0,
+            };
+            let val_ok = match vc {
+                Some(v) => {
+                    let a = calibrate::nrmse(&cur.params, v);
                     let b = calibrate::nrmse(&j.fit.params, v);
                     // Not materially worse: by no more than a tenth of the validation error
                     // above its floor plus a tenth of the noise energy (one of two missing
@@ -999,14 +1066,8 @@ pub fn diagnose(
             opts.predictability,
             true,
         );
-        let (fit, w, _) = better_on_common(
-            (
-                calibrate::polish(&chosen.fit.params, &chosen.fit.knobs, &wdata, 8),
-                wdata,
-            ),
-            (fit, w),
-            data,
-        );
+        let (fit, w, _) =
+            better_on_common((chosen.fit.clone(), chosen.own.clone()), (fit, w), data);
         wdata = w;
         let idx = fit.knobs.len() - 1;
         steps.push(Step {

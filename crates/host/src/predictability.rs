@@ -111,9 +111,53 @@ fn member(p: &ActuatorParams, m: usize, s: &Settings) -> ActuatorParams {
     q
 }
 
-/// Assesses `d` under `p` with the default settings.
+/// The second ensemble of [`assess`]: ten times the default perturbations, a 10 % line.
+pub const WIDE: Settings = Settings {
+    inertia_perturbation: 1e-2,
+    friction_perturbation: 5e-2,
+    window_s: 0.025,
+    threshold: 0.1,
+};
+
+/// Assesses `d` under `p`: a row is predictable when both the default ensemble
+/// ([`Settings::default`]) and the [`WIDE`] one keep it.
+///
+/// One ensemble is not enough, measured on the foreign suite's 48 cases at their true
+/// parameters (`host-tests/examples/calib_probe.rs`, `ENSEMBLES=1`; the emulator at the truth
+/// on the kept rows over the noise floor estimated from the record, which reads about 10 %
+/// high): the default one keeps rows where a resonance burst of the rig settled on the other
+/// of two coexisting responses, which copies moved by 10⁻³ do not reach (8.9 and 15.8 times
+/// the floor on two cases), and the wide one keeps, on three other cases, rows that copies
+/// moved by 10⁻² happen to agree on while the chaos goes on (1.1–1.6 times). Together they
+/// keep 14–30 % of a stepped sine and the truth sits at 0.83–0.95 times the floor on every
+/// case but one (tach_current_coupling/0, 1.6 with every setting).
 pub fn assess(p: &ActuatorParams, d: &Data) -> Predictability {
-    assess_with(p, d, &Settings::default())
+    let (a, b) = rayon::join(
+        || assess_with(p, d, &Settings::default()),
+        || assess_with(p, d, &WIDE),
+    );
+    let weight: Vec<f64> = a
+        .weight
+        .iter()
+        .zip(&b.weight)
+        .map(|(x, y)| x.min(*y))
+        .collect();
+    let n = weight.len();
+    let mut spans: Vec<(usize, usize)> = Vec::new();
+    for (k, &x) in weight.iter().enumerate() {
+        if x >= 0.5 {
+            continue;
+        }
+        match spans.last_mut() {
+            Some(last) if last.1 == k => last.1 = k + 1,
+            _ => spans.push((k, k + 1)),
+        }
+    }
+    Predictability {
+        excluded_share: weight.iter().filter(|x| **x < 0.5).count() as f64 / n.max(1) as f64,
+        weight,
+        spans,
+    }
 }
 
 /// Assesses `d` under `p`: runs the model and four perturbed copies over the record and marks
@@ -193,7 +237,7 @@ fn spans_from(flags: &[(bool, bool, bool)], w: usize, n: usize) -> Predictabilit
             calm = 0;
         } else if inside {
             calm = if is_calm { calm + 1 } else { 0 };
-            if quiet || calm >= 3 {
+            if (quiet && is_calm) || calm >= 3 {
                 inside = false;
             }
         }
