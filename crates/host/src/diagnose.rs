@@ -152,6 +152,12 @@ pub struct Outcome {
     pub final_nrmse_all_rows: f64,
     /// Validation NRMSE (predictable rows) of the nominal model and of the final one.
     pub validation: Option<(f64, f64)>,
+    /// The NRMSE the noise alone gives on the validation record's predictable rows.
+    pub validation_floor: Option<f64>,
+    /// When the validation record was added to the fit ([`diagnose`]): the NRMSE and floor
+    /// on it of the model calibrated without it, which left a material residual there.
+    /// `validation` is then no longer held out.
+    pub validation_in_fit: Option<(f64, f64)>,
     /// A material residual remains above the noise floor and no candidate explains it.
     pub unexplained: bool,
     /// Candidate scores of the last search: (effect, predicted NRMSE, start value).
@@ -643,8 +649,47 @@ pub fn fittable(params: &ActuatorParams, names: &[String]) -> Result<Vec<Param>,
         .collect()
 }
 
-/// Runs the whole diagnosis on `data` (one or more records) from the file's parameters.
+/// Runs the whole diagnosis on `data` (one or more records) from the file's parameters,
+/// checking what it finds on `validation` when given.
+///
+/// When the calibrated model leaves a material residual on the validation record (above
+/// [`Options::material_ratio`] times that record's own floor, on its predictable rows), the
+/// validation record shows what the estimation records could not (a stepped sine, whose slow
+/// bursts rattle, hardly shows a tachometer gain error or gravity; a square wave does): the
+/// diagnosis is then repeated on all records together, and the outcome says so
+/// ([`Outcome::validation_in_fit`]); the held-out checks are then the cross-validated
+/// segments alone.
 pub fn diagnose(
+    file_params: &ActuatorParams,
+    data: &[Data],
+    validation: Option<&Data>,
+    opts: &Options,
+) -> Result<Outcome, HostError> {
+    let out = diagnose_records(file_params, data, validation, opts)?;
+    let (Some(v), Some((_, after)), Some(v_floor)) =
+        (validation, out.validation, out.validation_floor)
+    else {
+        return Ok(out);
+    };
+    if after <= opts.material_ratio * v_floor {
+        return Ok(out);
+    }
+    let mut all = data.to_vec();
+    all.push(v.clone());
+    let mut both = diagnose_records(file_params, &all, None, opts)?;
+    let vn = weigh_one(&both.nominal, v, opts.predictability);
+    let vc = weigh_one(&both.final_fit.params, v, opts.predictability);
+    both.validation = Some((
+        calibrate::nrmse(&both.nominal, &vn),
+        calibrate::nrmse(&both.final_fit.params, &vc),
+    ));
+    both.validation_floor = Some(noise::floor_nrmse(noise::sigma(&v.y), &vc.weight, vc.norm));
+    both.validation_in_fit = Some((after, v_floor));
+    Ok(both)
+}
+
+/// [`diagnose`] without the second pass.
+fn diagnose_records(
     file_params: &ActuatorParams,
     data: &[Data],
     validation: Option<&Data>,
@@ -846,7 +891,11 @@ pub fn diagnose(
             // there, and compared with the current model on the rows both keep (a model must
             // not be judged on rows that another one chose, where it may be the chaotic one).
             let own = weigh(&fit.params, data, opts.predictability);
-            let fit = calibrate::polish(&fit.params, &ks, &own, 8);
+            let mut fit = calibrate::polish(&fit.params, &ks, &own, 8);
+            // The polish can move it to where other rows are predictable: its rows and cost
+            // are taken anew where it ended.
+            let own = weigh(&fit.params, data, opts.predictability);
+            fit.cost = calibrate::cost(&fit.params, &own);
             let common = common_rows(data, &wdata, &own);
             let cur_c = calibrate::cost(&cur.params, &common);
             let fit_c = calibrate::cost(&fit.params, &common);
@@ -957,10 +1006,15 @@ pub fn diagnose(
                 })
             })
             .collect();
+        // Likelier first: a value inside its plausible range, then the statistically best
+        // (within the BIC threshold of the best), then the least change of the parameters
+        // already calibrated.
+        let tier = |j: &Judged| n_eff * (j.ratio / best_adm).ln() >= -opts.bic_threshold;
         class.sort_by(|&a, &b| {
             let (ja, jb) = (&judged[a], &judged[b]);
             (ja.implausibility > 0.0)
                 .cmp(&(jb.implausibility > 0.0))
+                .then(tier(ja).cmp(&tier(jb)))
                 .then(ja.distortion.total_cmp(&jb.distortion))
         });
         let vw = val_weighted(&cur.params);
@@ -1091,13 +1145,17 @@ pub fn diagnose(
     for st in &mut steps {
         st.partial = unexplained;
     }
-    let validation = match (val_weighted(&cur.params), val_weighted(&nominal)) {
-        (Some(vc), Some(vn)) => Some((
-            calibrate::nrmse(&nominal, &vn),
-            calibrate::nrmse(&cur.params, &vc),
-        )),
-        _ => None,
-    };
+    let (validation, validation_floor) =
+        match (val_weighted(&cur.params), val_weighted(&nominal), val_sigma) {
+            (Some(vc), Some(vn), Some(vs)) => (
+                Some((
+                    calibrate::nrmse(&nominal, &vn),
+                    calibrate::nrmse(&cur.params, &vc),
+                )),
+                Some(noise::floor_nrmse(vs, &vc.weight, vc.norm)),
+            ),
+            _ => (None, None),
+        };
     let unpredictable_rms = {
         let pick = |src: &[f64]| -> Vec<f64> {
             src.iter()
@@ -1126,6 +1184,8 @@ pub fn diagnose(
         unpredictable_rms,
         final_fit: cur,
         validation,
+        validation_floor,
+        validation_in_fit: None,
         last_scores,
         rejected,
     })

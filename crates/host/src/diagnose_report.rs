@@ -166,11 +166,23 @@ impl Outcome {
             );
         }
         if let Some((a, b)) = self.validation {
+            let mut val = json!({"nrmse_before": a, "nrmse_after": b});
+            if let Some(f) = self.validation_floor {
+                insert(&mut val, "floor_nrmse", json!(f));
+            }
             insert(
-                &mut v,
-                "validation",
-                json!({"nrmse_before": a, "nrmse_after": b}),
+                &mut val,
+                "used_in_fit",
+                json!(self.validation_in_fit.is_some()),
             );
+            if let Some((x, f)) = self.validation_in_fit {
+                insert(
+                    &mut val,
+                    "held_out_nrmse",
+                    json!({"nrmse": x, "floor_nrmse": f}),
+                );
+            }
+            insert(&mut v, "validation", val);
         }
         v
     }
@@ -316,8 +328,22 @@ impl Outcome {
             f.lags_outside,
             residual::LAGS
         );
+        if let Some((x, f)) = self.validation_in_fit {
+            let _ = writeln!(
+                s,
+                "validation held out:    NRMSE {x:.4} against its floor {f:.4}: a material residual the estimation record did not show, so both records were used for the fit below"
+            );
+        }
         if let Some((a, bb)) = self.validation {
-            let _ = writeln!(s, "validation:             NRMSE {a:.4} -> {bb:.4}");
+            let _ = writeln!(
+                s,
+                "validation:             NRMSE {a:.4} -> {bb:.4}{}",
+                if self.validation_in_fit.is_some() {
+                    " (in the fit)"
+                } else {
+                    ""
+                }
+            );
         }
         if self.unexplained {
             let (lo, hi, sh) = f.dominant_band();
