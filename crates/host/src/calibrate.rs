@@ -783,24 +783,10 @@ pub fn calibrate(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> Fit {
             }
         }
     }
-    let env = |k: &str, d: usize| {
-        std::env::var(k)
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(d)
-    };
-    let budget = env("GS_EVALS", EVALS_PER_KNOB) * knobs.len()
-        / if env("GS_SPLIT", 1) == 1 {
-            starts.len()
-        } else {
-            1
-        };
-    if env("GS_NOFRF", 0) == 1 {
-        starts.truncate(1);
-    }
+    let budget = EVALS_PER_KNOB * knobs.len() / starts.len();
     let best = starts
         .iter()
-        .map(|q| evolve(q, knobs, &rdata, env("GS_POP", POPULATION), budget))
+        .map(|q| evolve(q, knobs, &rdata, POPULATION, budget))
         .min_by(|a, b| a.0.total_cmp(&b.0))
         .map(|(_, q)| q)
         .unwrap_or(*p0);
