@@ -673,10 +673,11 @@ pub fn evolve(
     population: usize,
     budget: usize,
 ) -> (f64, ActuatorParams) {
-    evolve_with(p0, knobs, data, population, budget, 0.5)
+    evolve_with(p0, knobs, data, population, budget, 0.5, 0)
 }
 
-/// [`evolve`] with the initial step `step` in units of the exploration box.
+/// [`evolve`] with the initial step `step` in units of the exploration box and the search's
+/// random stream `seed` (a run is reproducible for a given seed, on any thread count).
 pub fn evolve_with(
     p0: &ActuatorParams,
     knobs: &[Knob],
@@ -684,6 +685,7 @@ pub fn evolve_with(
     population: usize,
     budget: usize,
     step: f64,
+    seed: u64,
 ) -> (f64, ActuatorParams) {
     let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, k.param))).collect();
     let hw: Vec<f64> = knobs.iter().map(explore_half_width).collect();
@@ -709,7 +711,7 @@ pub fn evolve_with(
         .population_size(population.max(4))
         .max_function_evals(budget.max(population))
         .tol_fun(1e-9)
-        .seed(0x5eed)
+        .seed(0x5eed_u64.wrapping_add(seed))
         .build(objective)
     else {
         return (c0, *p0);
@@ -766,6 +768,12 @@ pub fn polish(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], patience: usiz
 /// the record's own frequency response says (eqs. 17a/b), then Levenberg–Marquardt on the
 /// same loss from the best point. The fit is reported with the plain least-squares costs.
 pub fn calibrate(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> Fit {
+    calibrate_seeded(p0, knobs, data, 0)
+}
+
+/// [`calibrate`] with the global search's random stream `seed`: independent searches, of
+/// which a caller can keep the best.
+pub fn calibrate_seeded(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], seed: u64) -> Fit {
     if knobs.is_empty() {
         return levenberg_marquardt(p0, knobs, data);
     }
@@ -786,7 +794,7 @@ pub fn calibrate(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> Fit {
     let budget = EVALS_PER_KNOB * knobs.len() / starts.len();
     let best = starts
         .iter()
-        .map(|q| evolve(q, knobs, &rdata, POPULATION, budget))
+        .map(|q| evolve_with(q, knobs, &rdata, POPULATION, budget, 0.5, seed))
         .min_by(|a, b| a.0.total_cmp(&b.0))
         .map(|(_, q)| q)
         .unwrap_or(*p0);
@@ -811,7 +819,7 @@ pub fn refine(p0: &ActuatorParams, knobs: &[Knob], data: &[Data]) -> ActuatorPar
         return *p0;
     }
     let (pop, per) = LOCAL;
-    evolve_with(p0, knobs, &robust(data), pop, per * knobs.len(), 0.1).1
+    evolve_with(p0, knobs, &robust(data), pop, per * knobs.len(), 0.1, 0).1
 }
 
 /// Knobs that ended within 1 % (internal coordinate) of a bound: the fit wanted to go
