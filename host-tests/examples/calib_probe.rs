@@ -75,6 +75,14 @@ fn main() {
         .unwrap_or(vec![0]);
     for draw in draws {
         let c = foreign::case(kind, draw).unwrap();
+        if std::env::var("ONLY").is_ok() {
+            only(&c);
+            continue;
+        }
+        if std::env::var("JUDGE").is_ok() {
+            judge(&c);
+            continue;
+        }
         if std::env::var("PICKUP").is_ok() {
             pickup(&c);
             continue;
@@ -540,4 +548,58 @@ pub fn pickup(c: &foreign::ForeignCase) {
         let lag: Vec<f64> = (1..de.len()).map(|k| dr[k] - de[k - 1]).collect();
         println!("PICKUP {} burst {:.0} Hz: rms pickup ref {:.4e} emu {:.4e} diff {:.4e} (vs emu one row late {:.4e}); no-pickup emu-ref {:.4e}; sigma {:.4e}", c.label(), ss.frequency_hz(i), rms(&dr), rms(&de), rms(&diff), rms(&lag), rms(&base), noise::sigma(&c.estimation.y));
     }
+}
+
+/// A candidate judged against a base: the truth with the effect, the base without it, on
+/// each one's rows and on the common rows.
+pub fn judge(c: &foreign::ForeignCase) {
+    let d = &c.estimation;
+    let te = eq_truth(c);
+    let mut without = te;
+    for &(e, _) in &c.expected {
+        without.effects.set(e, 0.0);
+    }
+    let (wt, _) = predictability::weigh(&te, d);
+    let (ww, _) = predictability::weigh(&without, d);
+    let common: Vec<f64> = wt
+        .weight
+        .iter()
+        .zip(&ww.weight)
+        .map(|(a, b)| a.min(*b))
+        .collect();
+    let wc = d.with_weights(&common);
+    println!("JUDGE {}: truth on own {:.4} (kept {:.2}); without on own {:.4} (kept {:.2}); common (kept {:.2}): truth {:.4} without {:.4}",
+        c.label(), calibrate::nrmse(&te, &wt), 1.0 - wt.excluded_share(), calibrate::nrmse(&without, &ww), 1.0 - ww.excluded_share(),
+        1.0 - wc.excluded_share(), calibrate::nrmse(&te, &wc), calibrate::nrmse(&without, &wc));
+}
+
+/// diagnose with only the case's effects as candidates.
+pub fn only(c: &foreign::ForeignCase) {
+    let opts = Options {
+        candidates: c.expected.iter().map(|x| x.0).collect(),
+        ..Options::default()
+    };
+    let out = diagnose(
+        &c.file,
+        std::slice::from_ref(&c.estimation),
+        Some(&c.validation),
+        &opts,
+    )
+    .unwrap();
+    println!(
+        "ONLY {}: steps {:?} unexplained {} final {:.4} base {:.4} rejected {:?}",
+        c.label(),
+        out.steps
+            .iter()
+            .map(|s| format!("{}={:.3e}", s.effect, s.value))
+            .collect::<Vec<_>>(),
+        out.unexplained,
+        out.final_fit.cost.sqrt(),
+        out.base.cost.sqrt(),
+        out.rejected
+            .iter()
+            .map(|r| format!("{} {:.3e}: {}", r.effect, r.value, r.reason))
+            .collect::<Vec<_>>()
+    );
+    println!("  base [{}]", fmt(&eq_truth(c), &out.base.params));
 }

@@ -9,6 +9,7 @@
 use geared_servo::{ActuatorParams, Effect};
 use geared_servo_host::calibrate::{self, Param, BASE_KNOBS};
 use geared_servo_host::diagnose::{diagnose, Options, Outcome};
+use geared_servo_host::predictability;
 use geared_servo_host_tests::foreign::{self, ForeignCase, Kind, FINE_STEP_S};
 use std::time::{Duration, Instant};
 
@@ -27,10 +28,66 @@ fn names(step: &geared_servo_host::diagnose::Step, e: Effect) -> bool {
     step.effect == e || step.indistinguishable_from.iter().any(|(x, _)| *x == e)
 }
 
-/// The verdict rule of the issue.
-fn verdict_right(case: &ForeignCase, out: &Outcome) -> bool {
+/// Whether the records can show a case's hidden effect at all, and the evidence: a *witness*
+/// — the true unit with the effect removed and the default set (with the background mesh
+/// damping) refitted on both records together, from the truth, on the truth's predictable
+/// rows — against the truth on those rows, per record: (estimation truth, witness,
+/// validation truth, witness).
+struct Identifiability {
+    identifiable: bool,
+    nrmse: [f64; 4],
+}
+
+/// A witness within this factor of the truth's NRMSE on both records shows that the records
+/// cannot tell the effect from the base set (an existence proof: another explanation exists
+/// that needs no effect; a weaker calibration could only fail to find one, never invent it).
+const WITNESS_RATIO: f64 = 1.1;
+
+fn identifiability(case: &ForeignCase) -> Identifiability {
+    let Kind::Single(e) = case.kind else {
+        return Identifiability {
+            identifiable: true,
+            nrmse: [f64::NAN; 4],
+        };
+    };
+    let mut t = calibrate::with_measured_stiffness(&case.truth).unwrap();
+    t.sample_period_s = case.estimation.sample_period_s;
+    let (we, _) = predictability::weigh(&t, &case.estimation);
+    let (wv, _) = predictability::weigh(&t, &case.validation);
+    let mut start = t;
+    start.effects.set(e, 0.0);
+    let max_v = case.estimation.max_abs_v().max(case.validation.max_abs_v());
+    let mut knobs = calibrate::default_knobs(&start, max_v);
+    if !knobs
+        .iter()
+        .any(|k| k.param == Param::Effect(Effect::MeshDamping))
+    {
+        knobs.push(calibrate::knob(
+            &start,
+            Param::Effect(Effect::MeshDamping),
+            max_v,
+        ));
+    }
+    let both = [we.clone(), wv.clone()];
+    let w = calibrate::polish(&start, &knobs, &both, 20);
+    let nrmse = [
+        calibrate::nrmse(&t, &we),
+        calibrate::nrmse(&w.params, &we),
+        calibrate::nrmse(&t, &wv),
+        calibrate::nrmse(&w.params, &wv),
+    ];
+    Identifiability {
+        identifiable: nrmse[1] > WITNESS_RATIO * nrmse[0] || nrmse[3] > WITNESS_RATIO * nrmse[2],
+        nrmse,
+    }
+}
+
+/// The verdict rule of the issue; an effect the records cannot show ([`identifiability`]) is
+/// rightly not claimed (a clean verdict), and rightly claimed only as itself.
+fn verdict_right(case: &ForeignCase, out: &Outcome, identifiable: bool) -> bool {
     match case.kind {
         Kind::Clean => out.steps.is_empty() && !out.unexplained,
+        Kind::Single(_) if !identifiable && out.steps.is_empty() => !out.unexplained,
         Kind::Single(e) => out.steps.len() == 1 && names(&out.steps[0], e) && !out.unexplained,
         Kind::Pair => {
             !out.unexplained
@@ -129,6 +186,7 @@ struct Row {
     named: usize,
     nrmse_ok: bool,
     steps_on_clean: bool,
+    identifiable: bool,
     wall: Duration,
     error: Option<String>,
 }
@@ -231,13 +289,21 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
                     named: 0,
                     nrmse_ok: false,
                     steps_on_clean: c.kind == Kind::Clean,
+                    identifiable: true,
                     wall,
                     error: Some(e.to_string()),
                 });
                 continue;
             }
         };
-        let right = verdict_right(c, &out);
+        let id = identifiability(c);
+        if !id.identifiable {
+            eprintln!(
+                "    not identifiable from these records: without the effect, refitted, NRMSE {:.4} (truth {:.4}) on the estimation record and {:.4} (truth {:.4}) on the validation record, on the truth's predictable rows",
+                id.nrmse[1], id.nrmse[0], id.nrmse[3], id.nrmse[2]
+            );
+        }
+        let right = verdict_right(c, &out, id.identifiable);
         let rec = recovered(c, &out);
         let values_ok = rec.iter().all(|r| r.3 <= VALUE_TOL);
         // Like with like: the true parameters on the rows diagnose judged predictable.
@@ -336,6 +402,7 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
             named: rec.len(),
             nrmse_ok,
             steps_on_clean: c.kind == Kind::Clean && !out.steps.is_empty(),
+            identifiable: id.identifiable,
             wall,
             error: None,
         });
@@ -374,6 +441,7 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
     let bad_values = labels(|r| !r.values_ok);
     let bad_nrmse = labels(|r| !r.nrmse_ok);
     let clean_steps = labels(|r| r.steps_on_clean);
+    let unidentifiable = labels(|r| !r.identifiable);
     let errors: Vec<String> = rows
         .iter()
         .filter_map(|r| r.error.as_ref().map(|e| format!("{}: {e}", r.label)))
@@ -385,6 +453,9 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
     );
     eprintln!("  final NRMSE above {NRMSE_RATIO} x true: {bad_nrmse:?}");
     eprintln!("  effects added on clean records: {clean_steps:?}");
+    eprintln!(
+        "  hidden effects these records cannot show (a refit without them within {WITNESS_RATIO} x the truth on both records; a clean verdict counts as right): {unidentifiable:?}"
+    );
     eprintln!("  errors: {errors:?}");
     eprintln!(
         "  diagnose wall time: total {:.1} s, mean {:.1} s, slowest {:.1} s; generation {:.1} s; whole test {:.1} s",

@@ -668,7 +668,8 @@ pub fn fittable(params: &ActuatorParams, names: &[String]) -> Result<Vec<Param>,
 /// [`Options::material_ratio`] times that record's own floor, on its predictable rows), the
 /// validation record shows what the estimation records could not (a stepped sine, whose slow
 /// bursts rattle, hardly shows a tachometer gain error or gravity; a square wave does): the
-/// diagnosis is then repeated on all records together, and the outcome says so
+/// diagnosis then goes on from the model found so far on all records together, and the
+/// outcome says so
 /// ([`Outcome::validation_in_fit`]); the held-out checks are then the cross-validated
 /// segments alone.
 pub fn diagnose(
@@ -677,7 +678,7 @@ pub fn diagnose(
     validation: Option<&Data>,
     opts: &Options,
 ) -> Result<Outcome, HostError> {
-    let out = diagnose_records(file_params, data, validation, opts)?;
+    let out = diagnose_records(file_params, data, validation, opts, None)?;
     let (Some(v), Some((_, after)), Some(v_floor)) =
         (validation, out.validation, out.validation_floor)
     else {
@@ -688,7 +689,7 @@ pub fn diagnose(
     }
     let mut all = data.to_vec();
     all.push(v.clone());
-    let mut both = diagnose_records(file_params, &all, None, opts)?;
+    let mut both = diagnose_records(file_params, &all, None, opts, Some(&out))?;
     let vn = weigh_one(&both.nominal, v, opts.predictability);
     let vc = weigh_one(&both.final_fit.params, v, opts.predictability);
     both.validation = Some((
@@ -706,6 +707,7 @@ fn diagnose_records(
     data: &[Data],
     validation: Option<&Data>,
     opts: &Options,
+    resume: Option<&Outcome>,
 ) -> Result<Outcome, HostError> {
     let first = data
         .first()
@@ -743,17 +745,38 @@ fn diagnose_records(
     }
     // Two independent global settles, the better on the rows both keep: one search lands
     // a few percent off now and then (the patchwork is fine-grained), two rarely both do.
-    let (mut base, mut wdata, _) = better_on_common(
-        settle_seeded(&start, &knobs, data, opts.predictability, true, 0),
-        settle_seeded(&start, &knobs, data, opts.predictability, true, 1),
-        data,
-    );
+    // When resuming (the second pass of `diagnose`), the model found so far is settled on
+    // the records from where it stands and the search goes on from there.
+    let (mut cur, mut wdata, mut base, steps_so_far) = match resume {
+        None => {
+            let (mut base, wdata, _) = better_on_common(
+                settle_seeded(&start, &knobs, data, opts.predictability, true, 0),
+                settle_seeded(&start, &knobs, data, opts.predictability, true, 1),
+                data,
+            );
+            base.cost_start = calibrate::cost(&nominal, &wdata);
+            (base.clone(), wdata, base, Vec::new())
+        }
+        Some(r) => {
+            let (mut fit, wdata) = settle(
+                &r.final_fit.params,
+                &r.final_fit.knobs,
+                data,
+                opts.predictability,
+                false,
+            );
+            fit.cost_start = calibrate::cost(&nominal, &wdata);
+            let mut base = r.base.clone();
+            base.cost = calibrate::cost(&base.params, &wdata);
+            base.cost_start = fit.cost_start;
+            (fit, wdata, base, r.steps.clone())
+        }
+    };
     base.cost_start = calibrate::cost(&nominal, &wdata);
     let wfirst = wdata.first().unwrap_or(first);
     let (base_analysis, _) = analyse(&base.params, wfirst)?;
 
-    let mut cur = base.clone();
-    let mut steps: Vec<Step> = Vec::new();
+    let mut steps: Vec<Step> = steps_so_far;
     let mut last_scores = Vec::new();
     let mut rejected: Vec<Rejection> = Vec::new();
     // The validation record is weighted by its predictability under the current model.

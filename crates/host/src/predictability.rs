@@ -288,7 +288,7 @@ pub struct Smoothness {
     pub inertia_step: f64,
     /// Relative step of the frictions, the backlash and the mesh damping.
     pub friction_step: f64,
-    /// Antithetic pairs (at most 4: the Hadamard columns of [`MOVES`]).
+    /// Antithetic pairs (at most 4: the Hadamard columns of the move table).
     pub pairs: usize,
     /// Window, s.
     pub window_s: f64,
