@@ -906,20 +906,22 @@ fn diagnose_records(
         // reported.
         let mut order: Vec<usize> = (0..local.len()).collect();
         order.sort_by(|&a, &b| local[a].2.cost.total_cmp(&local[b].2.cost));
-        let structural: Vec<usize> = if poor {
-            order.iter().take(opts.refit_top).copied().collect()
-        } else {
-            let best_kin = order
-                .first()
-                .and_then(|&i| local.get(i))
-                .map(|x| kin(x.0))
-                .unwrap_or_default();
-            order
-                .iter()
-                .copied()
-                .filter(|&i| local.get(i).is_some_and(|x| best_kin.contains(&x.0)))
-                .collect()
-        };
+        // A poor fit searches both: the best few, and the kin of the best (a tie with an
+        // effect whose local refit stayed in the bent basin must still be found).
+        let best_kin = order
+            .first()
+            .and_then(|&i| local.get(i))
+            .map(|x| kin(x.0))
+            .unwrap_or_default();
+        let structural: Vec<usize> = order
+            .iter()
+            .enumerate()
+            .filter(|&(rank, &i)| {
+                (poor && rank < opts.refit_top)
+                    || local.get(i).is_some_and(|x| best_kin.contains(&x.0))
+            })
+            .map(|(_, &i)| i)
+            .collect();
         if !structural.is_empty() {
             let globals: Vec<(usize, (Fit, Vec<Data>))> = structural
                 .iter()
