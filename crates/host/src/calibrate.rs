@@ -181,6 +181,17 @@ pub struct Trace {
 
 /// Runs `p` over `d` from rest (after the pre-roll); `None` if `p` is invalid.
 pub fn simulate(p: &ActuatorParams, d: &Data) -> Option<Trace> {
+    simulate_with(p, d, |_, _| {})
+}
+
+/// [`simulate`] with `hook(k, state)` called before the step that leaves row `k` (after the
+/// row's outputs are taken): a hook may move the state (the predictability assessment moves
+/// the gears within the gap at each start from rest).
+pub fn simulate_with(
+    p: &ActuatorParams,
+    d: &Data,
+    mut hook: impl FnMut(usize, &mut PlantState),
+) -> Option<Trace> {
     let mut q = *p;
     q.sample_period_s = d.sample_period_s;
     let plant = Plant::new(&q).ok()?;
@@ -209,6 +220,7 @@ pub fn simulate(p: &ActuatorParams, d: &Data) -> Option<Trace> {
         t.motor_speed.push(f64::from(o.motor_speed_rad_s));
         t.current.push(f64::from(o.current_a));
         t.contact.push(o.in_contact);
+        hook(t.y.len() - 1, &mut st);
         o = plant.step(&mut st, v as f32);
     }
     Some(t)

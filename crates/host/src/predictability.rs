@@ -136,15 +136,21 @@ pub const WIDE: Settings = Settings {
 /// keep 14–30 % of a stepped sine and the truth sits at 0.83–0.95 times the floor on every
 /// case but one (tach_current_coupling/0, 1.6 with every setting).
 pub fn assess(p: &ActuatorParams, d: &Data) -> Predictability {
-    let (a, b) = rayon::join(
-        || assess_with(p, d, &Settings::default()),
-        || assess_with(p, d, &WIDE),
+    let ((a, b), c) = rayon::join(
+        || {
+            rayon::join(
+                || assess_with(p, d, &Settings::default()),
+                || assess_with(p, d, &WIDE),
+            )
+        },
+        || assess_restarts(p, d),
     );
     let weight: Vec<f64> = a
         .weight
         .iter()
         .zip(&b.weight)
-        .map(|(x, y)| x.min(*y))
+        .zip(&c)
+        .map(|((x, y), z)| x.min(*y).min(*z))
         .collect();
     let n = weight.len();
     let mut spans: Vec<(usize, usize)> = Vec::new();
@@ -162,6 +168,108 @@ pub fn assess(p: &ActuatorParams, d: &Data) -> Predictability {
         weight,
         spans,
     }
+}
+
+/// A start from rest: the command leaves a zero run at least this long, s.
+pub const REST_S: f64 = 0.05;
+/// A restarted copy is compared with the model from this long after the start, s (the
+/// transient of the moved gears has decayed by then at 1 % of critical damping and 100 Hz).
+pub const RESTART_SETTLE_S: f64 = 0.1;
+/// ... and the burst is unpredictable when their RMS difference there exceeds this share of
+/// the model's RMS (the [`WIDE`] line).
+pub const RESTART_LINE: f64 = 0.1;
+
+/// Rows where the command leaves a zero run (below 1 % of its largest magnitude) of at least
+/// [`REST_S`], with the row where the next such run begins (or the record's end).
+fn restarts(d: &Data) -> Vec<(usize, usize)> {
+    let peak = d.volts.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let zero = 0.01 * peak;
+    let min_run = ((REST_S / d.sample_period_s).round() as usize).max(1);
+    // Zero runs as (first row, one past the last).
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    let mut lo: Option<usize> = None;
+    for (k, v) in d.volts.iter().enumerate() {
+        match (v.abs() < zero, lo) {
+            (true, None) => lo = Some(k),
+            (false, Some(a)) => {
+                if k - a >= min_run {
+                    runs.push((a, k));
+                }
+                lo = None;
+            }
+            _ => {}
+        }
+    }
+    runs.iter()
+        .enumerate()
+        .map(|(i, &(_, start))| {
+            let end = runs.get(i + 1).map(|r| r.0).unwrap_or(d.volts.len());
+            (start, end)
+        })
+        .filter(|&(start, end)| start < end)
+        .collect()
+}
+
+/// Row weights of the restart test: a burst that starts from rest is unpredictable when a copy
+/// of the model whose gears rest elsewhere in the gap at its start (mirrored about the gap's
+/// centre, or moved by half the gap when near it) ends on another response. A lightly damped
+/// gear train driven through its resonance can have two coexisting steady responses (with and
+/// without impacts, say), and which one a burst reaches depends on where the gears rested
+/// before it, which after a rattling burst neither the rig nor any model controls: copies with
+/// moved parameters reach the same one, the rig may not. The two are compared from
+/// [`RESTART_SETTLE_S`] after the start, when a mere transient has decayed; every row weighs 1
+/// on a record without starts from rest (a square wave, a multisine).
+pub fn assess_restarts(p: &ActuatorParams, d: &Data) -> Vec<f64> {
+    let n = d.y.len();
+    let mut weight = vec![1.0; n];
+    let starts = restarts(d);
+    let Some(delta) = p.derived().ok().map(|x| x.delta_rad as f32) else {
+        return weight;
+    };
+    if starts.is_empty() || delta <= 0.0 {
+        return weight;
+    }
+    let kicks: Vec<usize> = starts.iter().map(|s| s.0).collect();
+    let (center, moved) = rayon::join(
+        || calibrate::simulate(p, d),
+        || {
+            calibrate::simulate_with(p, d, |k, st| {
+                if kicks.binary_search(&k).is_ok() {
+                    let x = st.twist_rad;
+                    st.twist_rad = if x.abs() > 0.25 * delta {
+                        -x.clamp(-delta, delta)
+                    } else if x >= 0.0 {
+                        x - 0.5 * delta
+                    } else {
+                        x + 0.5 * delta
+                    };
+                }
+            })
+        },
+    );
+    let (Some(center), Some(moved)) = (center, moved) else {
+        return weight;
+    };
+    let settle = (RESTART_SETTLE_S / d.sample_period_s).round() as usize;
+    for &(start, end) in &starts {
+        let lo = start + settle;
+        if lo >= end {
+            continue;
+        }
+        let (mut diff, mut sig) = (0.0, 0.0);
+        for k in lo..end {
+            let c = center.y.get(k).copied().unwrap_or(0.0);
+            let m = moved.y.get(k).copied().unwrap_or(c);
+            diff += (m - c).powi(2);
+            sig += c * c;
+        }
+        if diff > RESTART_LINE.powi(2) * sig {
+            for x in weight.get_mut(start..end).unwrap_or(&mut []) {
+                *x = 0.0;
+            }
+        }
+    }
+    weight
 }
 
 /// Assesses `d` under `p`: runs the model and four perturbed copies over the record and marks
@@ -421,4 +529,96 @@ pub fn weigh_smooth(p: &ActuatorParams, d: &Data) -> (Data, Predictability) {
 pub fn weigh(p: &ActuatorParams, d: &Data) -> (Data, Predictability) {
     let pr = assess(p, d);
     (d.with_weights(&pr.weight), pr)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::residual::weighted_norm;
+    use geared_servo::REFERENCE;
+
+    const H: f64 = 5e-4;
+
+    fn rows(s: f64) -> usize {
+        (s / H).round() as usize
+    }
+
+    /// A record of `segments` (seconds, amplitude V, frequency Hz; amplitude 0 = rest) whose
+    /// output is the reference model's own tachometer.
+    fn record(segments: &[(f64, f64, f64)], p: &ActuatorParams) -> Data {
+        let mut volts = Vec::new();
+        for &(secs, amp, f) in segments {
+            for k in 0..rows(secs) {
+                let t = k as f64 * H;
+                volts.push(amp * (2.0 * core::f64::consts::PI * f * t).sin());
+            }
+        }
+        let n = volts.len();
+        let mut d = Data {
+            volts,
+            y: vec![0.0; n],
+            output: "tach_v".to_string(),
+            sample_period_s: H,
+            preroll: 0,
+            weight: vec![1.0; n],
+            norm: 1.0,
+            robust: None,
+        };
+        if let Some(t) = calibrate::simulate(p, &d) {
+            d.y = t.y;
+        }
+        d.norm = weighted_norm(&d.y, &d.weight).1;
+        d
+    }
+
+    #[test]
+    fn restarts_are_the_ends_of_zero_runs_of_at_least_rest_s() {
+        let d = record(
+            &[
+                (0.1, 0.0, 0.0),
+                (0.2, 5.0, 40.0),
+                (0.02, 0.0, 0.0),
+                (0.1, 5.0, 40.0),
+                (0.1, 0.0, 0.0),
+                (0.1, 5.0, 40.0),
+            ],
+            &REFERENCE,
+        );
+        let s = restarts(&d);
+        // The first sample of each sine is 0 and belongs to the zero run before it; the
+        // 20 ms pause is shorter than REST_S and starts nothing.
+        assert_eq!(s.len(), 2, "{s:?}");
+        assert_eq!(s[0].0, rows(0.1) + 1);
+        assert_eq!(s[1].0, rows(0.52) + 1);
+        // A burst lasts until the next rest begins: the sine's last rows near zero stay
+        // above 1 % of the peak for all but a few rows.
+        assert!(s[0].1 > rows(0.41) && s[0].1 <= rows(0.42) + 1, "{s:?}");
+        assert_eq!(s[1].1, d.volts.len());
+    }
+
+    #[test]
+    fn a_record_without_rests_keeps_every_row() {
+        let d = record(&[(0.6, 8.0, 120.0)], &REFERENCE);
+        assert!(restarts(&d).is_empty());
+        assert!(assess_restarts(&REFERENCE, &d).iter().all(|w| *w == 1.0));
+    }
+
+    #[test]
+    fn a_well_damped_burst_reaches_the_same_response_from_anywhere_in_the_gap() {
+        // Heavy mesh damping (0.5 N·m·s/rad): one steady response, whatever the start.
+        let mut p = REFERENCE;
+        p.effects.mesh_damping = 0.5;
+        let d = record(
+            &[
+                (0.1, 0.0, 0.0),
+                (0.3, 10.0, 150.0),
+                (0.1, 0.0, 0.0),
+                (0.3, 10.0, 60.0),
+            ],
+            &p,
+        );
+        assert_eq!(restarts(&d).len(), 2);
+        let w = assess_restarts(&p, &d);
+        assert!(w.iter().all(|x| *x == 1.0));
+    }
 }
