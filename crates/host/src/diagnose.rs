@@ -1198,6 +1198,70 @@ fn diagnose_records(
             held_out: ho,
         });
         cur = fit;
+        // Backward step: an effect added earlier may have stood in for the one just added (a
+        // pick-up for a tachometer lag while the lag was missing). Each earlier one is set
+        // back to the file's value and the rest refitted; the first that then no longer earns
+        // its parameter, or no longer explains a material share of what lies above the
+        // floor, is removed. Mesh damping is kept: without it the background would go too.
+        let last = steps.len().saturating_sub(1);
+        let mut removal: Option<(usize, Fit, Vec<Data>, String)> = None;
+        for (si, st) in steps.iter().enumerate().take(last) {
+            if st.effect == Effect::MeshDamping {
+                continue;
+            }
+            let param = Param::Effect(st.effect);
+            let ks: Vec<Knob> = cur
+                .knobs
+                .iter()
+                .filter(|k| k.param != param)
+                .cloned()
+                .collect();
+            let mut q = cur.params;
+            calibrate::set(&mut q, param, calibrate::get(&nominal, param));
+            let without = calibrate::polish(&q, &ks, &wdata, 8);
+            let own = weigh(&without.params, data, opts.predictability);
+            let common = common_rows(data, &wdata, &own);
+            let with_c = calibrate::cost(&cur.params, &common);
+            let without_c = calibrate::cost(&without.params, &common);
+            let floor_c = floor_cost(&common, &sigma);
+            let n_eff = effective_samples(&cur.params, &common);
+            let delta_bic = n_eff * (with_c / without_c).ln() + n_eff.ln();
+            let immaterial = without_c - with_c < opts.min_excess_share * (without_c - floor_c);
+            if delta_bic.is_nan() || delta_bic >= opts.bic_threshold || immaterial {
+                let why = if immaterial {
+                    format!(
+                        "removed once {} was added: it explained {:.0} % of the error above the noise floor (needs {:.0} %)",
+                        chosen.effect,
+                        100.0 * (without_c - with_c) / (without_c - floor_c).max(f64::MIN_POSITIVE),
+                        100.0 * opts.min_excess_share
+                    )
+                } else {
+                    format!(
+                        "removed once {} was added: it no longer earned its parameter (ΔBIC {delta_bic:.1})",
+                        chosen.effect
+                    )
+                };
+                let mut without = without;
+                let own = weigh(&without.params, data, opts.predictability);
+                without.cost = calibrate::cost(&without.params, &own);
+                removal = Some((si, without, own, why));
+                break;
+            }
+        }
+        if let Some((si, without, own, why)) = removal {
+            let st = steps.remove(si);
+            rejected.push(Rejection {
+                effect: st.effect,
+                value: st.value,
+                nrmse_after: rms_nrmse(without.cost),
+                reason: why,
+            });
+            let (cost_start, moved) = (cur.cost_start, cur.moved);
+            cur = without;
+            cur.cost_start = cost_start;
+            cur.moved = moved;
+            wdata = own;
+        }
     }
     let wfirst = wdata.first().unwrap_or(first);
     let (final_analysis, final_trace) = analyse(&cur.params, wfirst)?;

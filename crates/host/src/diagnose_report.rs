@@ -369,9 +369,17 @@ impl Outcome {
 fn bound_lines(s: &mut String, fit: &calibrate::Fit) {
     use std::fmt::Write as _;
     for k in calibrate::at_bounds(fit) {
-        let _ = writeln!(
-            s,
-            "  {k} is at its bound (the file value x30 or /30): the model lacks something"
-        );
+        let background = fit.knobs.iter().any(|x| x.name() == k && x.floor_ok);
+        let _ = if background {
+            writeln!(
+                s,
+                "  {k} is at the top of the background damping every gear train has (calibrate::BACKGROUND_DAMPING): the record wants more damping"
+            )
+        } else {
+            writeln!(
+                s,
+                "  {k} is at its bound (the file value x30 or /30): the model lacks something"
+            )
+        };
     }
 }

@@ -29,6 +29,12 @@
 //!   within 0.5 % to be counted together again: 67 % of a square-wave record of a soft
 //!   data-sheet rig (`datasheet_init.rs`).
 //!
+//! - Neither marks a burst with two coexisting responses when the model sits firmly on one of
+//!   them: near its parameters every copy reaches the same one, while the rig, whose gears a
+//!   rattling burst before left elsewhere in the gap, may reach the other. [`assess_restarts`]
+//!   moves the *state* instead: each burst that starts from rest is run again with the gears
+//!   resting elsewhere in the gap.
+//!
 //! A search from some percent away needs yet another view, the rows where the model is
 //! *smooth* in its parameters at that scale ([`assess_smooth`]): a fit is searched there and
 //! polished and judged on the predictable rows.
@@ -124,7 +130,8 @@ pub const WIDE: Settings = Settings {
 };
 
 /// Assesses `d` under `p`: a row is predictable when both the default ensemble
-/// ([`Settings::default`]) and the [`WIDE`] one keep it.
+/// ([`Settings::default`]) and the [`WIDE`] one keep it, and the restart test
+/// ([`assess_restarts`]) does.
 ///
 /// One ensemble is not enough, measured on the foreign suite's 48 cases at their true
 /// parameters (`host-tests/examples/calib_probe.rs`, `ENSEMBLES=1`; the emulator at the truth
