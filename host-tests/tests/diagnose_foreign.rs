@@ -192,10 +192,12 @@ struct Row {
 }
 
 // Issue 12 is open: this suite is the acceptance test of its work and does not pass yet
-// (5 of 30 verdicts right on 2026-11-23, 7.5 min on 2 cores). Run it with
-// `cargo test -p geared-servo-host-tests --test diagnose_foreign -- --ignored --nocapture`.
+// (41 of 48 verdicts right in the last full run on 2026-11-25, 45 min on 2 cores: beyond CI's
+// budget; docs/diagnose.md, "On records the emulator did not make"). Run it with
+// `cargo test --release -p geared-servo-host-tests --test diagnose_foreign -- --ignored --nocapture`
+// (`GS_FOREIGN_CASES=tach_lag/0,pair/1` for a subset).
 #[test]
-#[ignore = "issue 12 acceptance suite: 5/30 verdicts right today; run with --ignored"]
+#[ignore = "issue 12 acceptance suite: 41/48 verdicts right (needs 90 %), 45 min; run with --ignored"]
 fn diagnose_names_effects_in_records_of_the_independent_reference() {
     let t_all = Instant::now();
 
