@@ -12,8 +12,8 @@
 //! Rows inside unpredictable spans are weighted out of fits and decisions, their share is
 //! reported, and they are compared by statistics instead (RMS level).
 //!
-//! No single size of the perturbation marks everything ([`assess`] runs two and keeps a row
-//! only where both do):
+//! No single size of the perturbation marks everything ([`assess`] runs two, and the restart
+//! test below, and keeps a row only where all keep it):
 //! - 10⁻³ / 5·10⁻³ with a 5 % line (the default [`Settings`]) keeps the resonance bursts, which
 //!   are predictable but sensitive and tell inertia from stiffness, but also, on two of the
 //!   foreign suite's 48 units, bursts where the rig settled on the other of two coexisting
@@ -143,14 +143,18 @@ pub const WIDE: Settings = Settings {
 /// keep 14–30 % of a stepped sine and the truth sits at 0.83–0.95 times the floor on every
 /// case but one (tach_current_coupling/0, 1.6 with every setting).
 pub fn assess(p: &ActuatorParams, d: &Data) -> Predictability {
+    // The model's own run is shared by the three tests.
+    let Some(center) = calibrate::simulate(p, d) else {
+        return Predictability::all(d.y.len());
+    };
     let ((a, b), c) = rayon::join(
         || {
             rayon::join(
-                || assess_with(p, d, &Settings::default()),
-                || assess_with(p, d, &WIDE),
+                || assess_around(p, d, &Settings::default(), &center.y),
+                || assess_around(p, d, &WIDE, &center.y),
             )
         },
-        || assess_restarts(p, d),
+        || restarts_around(p, d, &center.y),
     );
     let weight: Vec<f64> = a
         .weight
@@ -227,6 +231,14 @@ fn restarts(d: &Data) -> Vec<(usize, usize)> {
 /// [`RESTART_SETTLE_S`] after the start, when a mere transient has decayed; every row weighs 1
 /// on a record without starts from rest (a square wave, a multisine).
 pub fn assess_restarts(p: &ActuatorParams, d: &Data) -> Vec<f64> {
+    match calibrate::simulate(p, d) {
+        Some(center) => restarts_around(p, d, &center.y),
+        None => vec![1.0; d.y.len()],
+    }
+}
+
+/// [`assess_restarts`] given the model's own run `center` over `d`.
+fn restarts_around(p: &ActuatorParams, d: &Data, center: &[f64]) -> Vec<f64> {
     let n = d.y.len();
     let mut weight = vec![1.0; n];
     let starts = restarts(d);
@@ -237,24 +249,19 @@ pub fn assess_restarts(p: &ActuatorParams, d: &Data) -> Vec<f64> {
         return weight;
     }
     let kicks: Vec<usize> = starts.iter().map(|s| s.0).collect();
-    let (center, moved) = rayon::join(
-        || calibrate::simulate(p, d),
-        || {
-            calibrate::simulate_with(p, d, |k, st| {
-                if kicks.binary_search(&k).is_ok() {
-                    let x = st.twist_rad;
-                    st.twist_rad = if x.abs() > 0.25 * delta {
-                        -x.clamp(-delta, delta)
-                    } else if x >= 0.0 {
-                        x - 0.5 * delta
-                    } else {
-                        x + 0.5 * delta
-                    };
-                }
-            })
-        },
-    );
-    let (Some(center), Some(moved)) = (center, moved) else {
+    let moved = calibrate::simulate_with(p, d, |k, st| {
+        if kicks.binary_search(&k).is_ok() {
+            let x = st.twist_rad;
+            st.twist_rad = if x.abs() > 0.25 * delta {
+                -x.clamp(-delta, delta)
+            } else if x >= 0.0 {
+                x - 0.5 * delta
+            } else {
+                x + 0.5 * delta
+            };
+        }
+    });
+    let Some(moved) = moved else {
         return weight;
     };
     let settle = (RESTART_SETTLE_S / d.sample_period_s).round() as usize;
@@ -265,7 +272,7 @@ pub fn assess_restarts(p: &ActuatorParams, d: &Data) -> Vec<f64> {
         }
         let (mut diff, mut sig) = (0.0, 0.0);
         for k in lo..end {
-            let c = center.y.get(k).copied().unwrap_or(0.0);
+            let c = center.get(k).copied().unwrap_or(0.0);
             let m = moved.y.get(k).copied().unwrap_or(c);
             diff += (m - c).powi(2);
             sig += c * c;
@@ -287,10 +294,15 @@ pub fn assess_restarts(p: &ActuatorParams, d: &Data) -> Vec<f64> {
 /// while the motion goes on, even where their spread happens to be small), and is widened by
 /// one window on each side. Everything is predictable when the model cannot be run.
 pub fn assess_with(p: &ActuatorParams, d: &Data, s: &Settings) -> Predictability {
+    match calibrate::simulate(p, d) {
+        Some(center) => assess_around(p, d, s, &center.y),
+        None => Predictability::all(d.y.len()),
+    }
+}
+
+/// [`assess_with`] given the model's own run `center` over `d`.
+fn assess_around(p: &ActuatorParams, d: &Data, s: &Settings, center: &[f64]) -> Predictability {
     let n = d.y.len();
-    let Some(center) = calibrate::simulate(p, d) else {
-        return Predictability::all(n);
-    };
     let members: Vec<Vec<f64>> = (0..4)
         .into_par_iter()
         .filter_map(|m| calibrate::simulate(&member(p, m, s), d).map(|t| t.y))
@@ -300,7 +312,7 @@ pub fn assess_with(p: &ActuatorParams, d: &Data, s: &Settings) -> Predictability
     }
     let spread2: Vec<f64> = (0..n)
         .map(|k| {
-            let c = center.y.get(k).copied().unwrap_or(0.0);
+            let c = center.get(k).copied().unwrap_or(0.0);
             members
                 .iter()
                 .map(|y| (y.get(k).copied().unwrap_or(c) - c).powi(2))
@@ -308,7 +320,7 @@ pub fn assess_with(p: &ActuatorParams, d: &Data, s: &Settings) -> Predictability
                 / members.len() as f64
         })
         .collect();
-    let global_ms = center.y.iter().map(|v| v * v).sum::<f64>() / n as f64;
+    let global_ms = center.iter().map(|v| v * v).sum::<f64>() / n as f64;
     let w = ((s.window_s / d.sample_period_s).round() as usize).max(4);
     let windows = n.div_ceil(w);
     // Per window: the spread's ratio to the signal (squared), and whether the model is
@@ -320,7 +332,6 @@ pub fn assess_with(p: &ActuatorParams, d: &Data, s: &Settings) -> Predictability
             let len = (hi - lo).max(1) as f64;
             let sp = spread2.get(lo..hi).unwrap_or(&[]).iter().sum::<f64>() / len;
             let sig = center
-                .y
                 .get(lo..hi)
                 .unwrap_or(&[])
                 .iter()
