@@ -1242,7 +1242,6 @@ fn diagnose_records(
                     )
                 };
                 let mut without = without;
-                let own = weigh(&without.params, data, opts.predictability);
                 without.cost = calibrate::cost(&without.params, &own);
                 removal = Some((si, without, own, why));
                 break;
