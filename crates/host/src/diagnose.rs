@@ -22,7 +22,9 @@
 //! with the default set by Levenberg–Marquardt. A refit is *admissible* when it earns its
 //! parameter by the Bayesian information criterion (effective sample count n (1 − ρ₁)/(1 + ρ₁),
 //! ρ₁ the residual's lag-1 autocorrelation), explains at least [`Options::min_excess_share`]
-//! of the cost above the floor, and its value is plausible (within the effect's plausible range
+//! of the cost above the floor (both measured against the best point of the model without a
+//! new effect that any candidate's refit reached when its effect is switched off again), and
+//! its value is plausible (within the effect's plausible range
 //! of the registry, widened by [`Options::plausibility_slack`]). Admissible refits whose costs
 //! the data cannot tell apart (within the BIC threshold) form one class, ordered by physical
 //! likelihood: a value inside the plausible range first, then the least change of the
@@ -95,7 +97,8 @@ pub struct Step {
     pub value: f64,
     /// Its standard error.
     pub std_error: f64,
-    /// NRMSE over the predictable rows (root mean square over records) before adding it.
+    /// NRMSE over the predictable rows (root mean square over records) before adding it: the
+    /// rows both the model before and the model after keep.
     pub nrmse_before: f64,
     /// After.
     pub nrmse_after: f64,
@@ -1274,7 +1277,6 @@ fn diagnose_records(
             .first()
             .map(|(o, _)| separating_measurement(chosen.effect, *o, &first.output))
             .unwrap_or_default();
-        let nrmse_before = rms_nrmse(cur.cost);
         // The effect can change where the model is predictable (mesh damping calms rattle):
         // settle again, locally.
         let (fit, w) = settle(
@@ -1286,6 +1288,11 @@ fn diagnose_records(
         );
         let (fit, w, _) =
             better_on_common((chosen.fit.clone(), chosen.own.clone()), (fit, w), data);
+        // Before and after on the rows both models keep (each model's own rows differ: the
+        // two numbers on different rows can even read as a step backwards).
+        let both = common_rows(data, &wdata, &w);
+        let nrmse_before = rms_nrmse(calibrate::cost(&cur.params, &both));
+        let nrmse_after_step = rms_nrmse(calibrate::cost(&fit.params, &both));
         wdata = w;
         let idx = fit.knobs.len() - 1;
         steps.push(Step {
@@ -1293,7 +1300,7 @@ fn diagnose_records(
             value: fit.values.get(idx).copied().unwrap_or(f64::NAN),
             std_error: fit.std_errors.get(idx).copied().unwrap_or(f64::NAN),
             nrmse_before,
-            nrmse_after: rms_nrmse(fit.cost),
+            nrmse_after: nrmse_after_step,
             delta_bic: chosen.delta_bic,
             scores: score_list,
             partial: false,
