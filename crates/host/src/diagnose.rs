@@ -1126,7 +1126,7 @@ fn diagnose_records(
                 Err(format!(
                     "did not earn its parameter (ΔBIC {:.1}{})",
                     j.delta_bic,
-                    if null < 1.0 {
+                    if null.sqrt() < 0.9995 {
                         format!(
                             ", against the model without it refitted to NRMSE x{:.3}",
                             null.sqrt()
