@@ -599,7 +599,8 @@ fn score(
 /// A candidate's full refit, judged.
 struct Judged {
     fit: Fit,
-    /// Its cost over the current model's, on the rows both keep.
+    /// Its cost over the reference's (the current model's, or the better point of the model
+    /// without a new effect that a candidate's ablation reached), on the rows both keep.
     ratio: f64,
     /// The current model's cost on those rows.
     cur_c: f64,
