@@ -360,6 +360,32 @@ fn floor_cost(data: &[Data], sigma: &[f64]) -> f64 {
         / data.len().max(1) as f64
 }
 
+/// The evidence for an effect: the model with it costs `with_c`, without it `without_c`, the
+/// noise floor `floor_c` (on the same rows), the residual has `n_eff` effective samples.
+struct Evidence {
+    /// ΔBIC of the effect (negative: it earns its parameter).
+    delta_bic: f64,
+    /// Whether it explains less than `min_share` of the cost above the floor.
+    immaterial: bool,
+    /// The share of the cost above the floor it explains.
+    share: f64,
+}
+
+impl Evidence {
+    fn new(n_eff: f64, with_c: f64, without_c: f64, floor_c: f64, min_share: f64) -> Self {
+        Evidence {
+            delta_bic: n_eff * (with_c / without_c).ln() + n_eff.ln(),
+            immaterial: without_c - with_c < min_share * (without_c - floor_c),
+            share: (without_c - with_c) / (without_c - floor_c).max(f64::MIN_POSITIVE),
+        }
+    }
+
+    /// Whether the effect earns its parameter by `threshold`.
+    fn earns(&self, threshold: f64) -> bool {
+        !self.delta_bic.is_nan() && self.delta_bic < threshold
+    }
+}
+
 /// How far `v` lies outside `effect`'s plausible range, in units of the range's own scale:
 /// 0 inside, 1 at the edge widened by `slack` (log factor for positive effects, half-widths
 /// for a signed gain error), more beyond.
@@ -1006,7 +1032,9 @@ fn diagnose_records(
             // The candidate is a model of its own, with its own predictable rows: polished
             // there, and compared with the current model on the rows both keep (a model must
             // not be judged on rows that another one chose, where it may be the chaotic one).
-            let mut best: Option<(f64, Fit, Vec<Data>, Vec<Data>)> = None;
+            // (cost over the current model's, fit, own rows, common rows, fit cost, current cost)
+            type Alt = (f64, Fit, Vec<Data>, Vec<Data>, f64, f64);
+            let mut best: Option<Alt> = None;
             for f in std::iter::once(fit).chain(more) {
                 let own = weigh(&f.params, data, opts.predictability);
                 let mut f = calibrate::polish(&f.params, &ks, &own, 8);
@@ -1015,16 +1043,16 @@ fn diagnose_records(
                 let own = weigh(&f.params, data, opts.predictability);
                 f.cost = calibrate::cost(&f.params, &own);
                 let common = common_rows(data, &wdata, &own);
-                let r = calibrate::cost(&f.params, &common) / calibrate::cost(&cur.params, &common);
+                let fit_c = calibrate::cost(&f.params, &common);
+                let cur_c = calibrate::cost(&cur.params, &common);
+                let r = fit_c / cur_c;
                 if best.as_ref().is_none_or(|b| r < b.0) {
-                    best = Some((r, f, own, common));
+                    best = Some((r, f, own, common, fit_c, cur_c));
                 }
             }
-            let Some((_, fit, own, common)) = best else {
+            let Some((_, fit, own, common, fit_c, cur_c)) = best else {
                 continue;
             };
-            let cur_c = calibrate::cost(&cur.params, &common);
-            let fit_c = calibrate::cost(&fit.params, &common);
             let floor_c = floor_cost(&common, &sigma);
             let value = fit.values.last().copied().unwrap_or(f64::NAN);
             // The samples' effective number is that of the noise, so it is taken from the
@@ -1122,8 +1150,9 @@ fn diagnose_records(
         for j in &mut judged {
             let ref_c = j.cur_c * null;
             j.ratio = j.fit_c / ref_c;
-            j.delta_bic = j.n_eff * j.ratio.ln() + j.n_eff.ln();
-            let statistical = if j.delta_bic.is_nan() || j.delta_bic >= opts.bic_threshold {
+            let ev = Evidence::new(j.n_eff, j.fit_c, ref_c, j.floor_c, opts.min_excess_share);
+            j.delta_bic = ev.delta_bic;
+            let statistical = if !ev.earns(opts.bic_threshold) {
                 Err(format!(
                     "did not earn its parameter (ΔBIC {:.1}{})",
                     j.delta_bic,
@@ -1136,10 +1165,10 @@ fn diagnose_records(
                         String::new()
                     }
                 ))
-            } else if ref_c - j.fit_c < opts.min_excess_share * (ref_c - j.floor_c) {
+            } else if ev.immaterial {
                 Err(format!(
                     "explains {:.0} % of the error above the noise floor (needs {:.0} %)",
-                    100.0 * (ref_c - j.fit_c) / (ref_c - j.floor_c).max(f64::MIN_POSITIVE),
+                    100.0 * ev.share,
                     100.0 * opts.min_excess_share
                 ))
             } else {
@@ -1337,20 +1366,19 @@ fn diagnose_records(
             let without_c = calibrate::cost(&without.params, &common);
             let floor_c = floor_cost(&common, &sigma);
             let n_eff = effective_samples(&cur.params, &common);
-            let delta_bic = n_eff * (with_c / without_c).ln() + n_eff.ln();
-            let immaterial = without_c - with_c < opts.min_excess_share * (without_c - floor_c);
-            if delta_bic.is_nan() || delta_bic >= opts.bic_threshold || immaterial {
-                let why = if immaterial {
+            let ev = Evidence::new(n_eff, with_c, without_c, floor_c, opts.min_excess_share);
+            if !ev.earns(opts.bic_threshold) || ev.immaterial {
+                let why = if ev.immaterial {
                     format!(
                         "removed once {} was added: it explained {:.0} % of the error above the noise floor (needs {:.0} %)",
                         chosen.effect,
-                        100.0 * (without_c - with_c) / (without_c - floor_c).max(f64::MIN_POSITIVE),
+                        100.0 * ev.share,
                         100.0 * opts.min_excess_share
                     )
                 } else {
                     format!(
-                        "removed once {} was added: it no longer earned its parameter (ΔBIC {delta_bic:.1})",
-                        chosen.effect
+                        "removed once {} was added: it no longer earned its parameter (ΔBIC {:.1})",
+                        chosen.effect, ev.delta_bic
                     )
                 };
                 let mut without = without;
