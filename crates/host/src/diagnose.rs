@@ -303,16 +303,6 @@ fn settle_seeded(
 /// `data` weighted by the rows both `a` and `b` keep (the same records, each weighted by one
 /// model's predictability).
 fn common_rows(data: &[Data], a: &[Data], b: &[Data]) -> Vec<Data> {
-    combine_rows(data, a, b, f64::min)
-}
-
-/// `data` weighted by the larger of the weights of `a` and `b` row by row: the rows either
-/// keeps.
-fn union_rows(data: &[Data], a: &[Data], b: &[Data]) -> Vec<Data> {
-    combine_rows(data, a, b, f64::max)
-}
-
-fn combine_rows(data: &[Data], a: &[Data], b: &[Data], f: fn(f64, f64) -> f64) -> Vec<Data> {
     data.iter()
         .zip(a.iter().zip(b))
         .map(|(d, (x, y))| {
@@ -320,7 +310,7 @@ fn combine_rows(data: &[Data], a: &[Data], b: &[Data], f: fn(f64, f64) -> f64) -
                 .weight
                 .iter()
                 .zip(&y.weight)
-                .map(|(p, q)| f(*p, *q))
+                .map(|(p, q)| p.min(*q))
                 .collect();
             d.with_weights(&w)
         })
@@ -328,20 +318,18 @@ fn combine_rows(data: &[Data], a: &[Data], b: &[Data], f: fn(f64, f64) -> f64) -
 }
 
 /// The better of two fits, each with its records weighted by its own predictability, judged
-/// on the rows either keeps, both fits scored on all of them: a fit answers for every row it
-/// claims to follow, so it can neither win by weighting out rows the other follows nor by
-/// keeping rows it does not follow. (Judged on the rows both keep, a fit that had weighted
-/// out rows it missed won; requiring it also not to be worse on its own rows than the other
-/// on its own kept a fit that kept rows it missed at 0.23 against one at 0.03 — foreign
-/// second_mode/1.) Returns the winner with its own rows, and whether it is `b`.
-fn better_on_union(
+/// on the rows both keep (the rows are the fit's own, and a fit must not win by having
+/// weighted out rows the other follows), and not worse on its own rows than the other on
+/// its own (nor by keeping rows it does not follow). Returns the winner with its own rows,
+/// and whether it is `b`.
+fn better_on_common(
     a: (Fit, Vec<Data>),
     b: (Fit, Vec<Data>),
     data: &[Data],
 ) -> (Fit, Vec<Data>, bool) {
-    let union = union_rows(data, &a.1, &b.1);
-    let b_wins = calibrate::cost(&b.0.params, &union) < calibrate::cost(&a.0.params, &union);
-    if b_wins {
+    let common = common_rows(data, &a.1, &b.1);
+    let own_ok = calibrate::cost(&b.0.params, &b.1) <= calibrate::cost(&a.0.params, &a.1);
+    if own_ok && calibrate::cost(&b.0.params, &common) < calibrate::cost(&a.0.params, &common) {
         (b.0, b.1, true)
     } else {
         (a.0, a.1, false)
@@ -798,13 +786,13 @@ fn diagnose_records(
             start = q;
         }
     }
-    // Two independent global settles, the better on the rows either keeps: one search lands
+    // Two independent global settles, the better on the rows both keep: one search lands
     // a few percent off now and then (the patchwork is fine-grained), two rarely both do.
     // When resuming (the second pass of `diagnose`), the model found so far is settled on
     // the records from where it stands and the search goes on from there.
     let (mut cur, mut wdata, mut base, steps_so_far) = match resume {
         None => {
-            let (mut base, wdata, _) = better_on_union(
+            let (mut base, wdata, _) = better_on_common(
                 settle_seeded(&start, &knobs, data, opts.predictability, true, 0),
                 settle_seeded(&start, &knobs, data, opts.predictability, true, 1),
                 data,
@@ -1295,7 +1283,7 @@ fn diagnose_records(
             if !resettled {
                 resettled = true;
                 let (g, w) = settle(&cur.params, &cur.knobs, data, opts.predictability, true);
-                let (c2, w2, better) = better_on_union((cur.clone(), wdata.clone()), (g, w), data);
+                let (c2, w2, better) = better_on_common((cur.clone(), wdata.clone()), (g, w), data);
                 if better {
                     let (cost_start, moved) = (cur.cost_start, cur.moved);
                     cur = c2;
@@ -1328,7 +1316,8 @@ fn diagnose_records(
             opts.predictability,
             true,
         );
-        let (fit, w, _) = better_on_union((chosen.fit.clone(), chosen.own.clone()), (fit, w), data);
+        let (fit, w, _) =
+            better_on_common((chosen.fit.clone(), chosen.own.clone()), (fit, w), data);
         // Before and after on the rows both models keep (each model's own rows differ: the
         // two numbers on different rows can even read as a step backwards).
         let both = common_rows(data, &wdata, &w);
