@@ -36,6 +36,8 @@ fn names(step: &geared_servo_host::diagnose::Step, e: Effect) -> bool {
 struct Identifiability {
     identifiable: bool,
     nrmse: [f64; 4],
+    /// The witness's parameters (a single effect's case).
+    witness: Option<ActuatorParams>,
 }
 
 /// A witness within this factor of the truth's NRMSE on both records shows that the records
@@ -48,6 +50,7 @@ fn identifiability(case: &ForeignCase) -> Identifiability {
         return Identifiability {
             identifiable: true,
             nrmse: [f64::NAN; 4],
+            witness: None,
         };
     };
     let mut t = calibrate::with_measured_stiffness(&case.truth).unwrap();
@@ -79,6 +82,7 @@ fn identifiability(case: &ForeignCase) -> Identifiability {
     Identifiability {
         identifiable: nrmse[1] > WITNESS_RATIO * nrmse[0] || nrmse[3] > WITNESS_RATIO * nrmse[2],
         nrmse,
+        witness: Some(w.params),
     }
 }
 
@@ -324,12 +328,36 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
             let w = out.weights.first().cloned().unwrap_or_default();
             calibrate::nrmse(&t, &c.estimation.with_weights(&w))
         };
+        // Reported only: the witness on the same rows (how far a model without the hidden
+        // effect can come there).
+        if let (false, Some(wp)) = (id.identifiable, id.witness) {
+            let w = out.weights.first().cloned().unwrap_or_default();
+            eprintln!(
+                "    the witness on diagnose's predictable rows of the estimation record: NRMSE {:.4}",
+                calibrate::nrmse(&wp, &c.estimation.with_weights(&w))
+            );
+        }
         eprintln!(
             "    predictable rows {:.1} % of the estimation record: final {fin:.4}, true parameters {truth_pred:.4}, floor {:.4}; every row: final {:.4}",
             100.0 * (1.0 - out.unpredictable_share.first().copied().unwrap_or(0.0)),
             out.floor_nrmse,
             out.final_nrmse_all_rows
         );
+        // Reported only: the same on the validation record when the fit used it.
+        if let Some(w) = out
+            .weights
+            .get(1)
+            .filter(|w| w.len() == c.validation.y.len())
+        {
+            let mut t = calibrate::with_measured_stiffness(&c.truth).unwrap();
+            t.sample_period_s = c.validation.sample_period_s;
+            let v = c.validation.with_weights(w);
+            eprintln!(
+                "    predictable rows of the validation record: final {:.4}, true parameters {:.4}",
+                calibrate::nrmse(&out.final_fit.params, &v),
+                calibrate::nrmse(&t, &v)
+            );
+        }
         let nrmse_ok = fin <= NRMSE_RATIO * truth_pred;
         let (vb, va) = out.validation.unwrap_or((f64::NAN, f64::NAN));
         eprintln!(
