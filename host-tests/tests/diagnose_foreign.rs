@@ -4,7 +4,9 @@
 //! draws. Prints one line per case and a summary, then checks the requirements:
 //! at least 90 % of verdicts right, no effect added on a clean record, recovered values within
 //! 30 % of the truth (after the resistance scale), and a calibrated NRMSE within 1.2 times that
-//! of the true parameters on the estimation record.
+//! of the true parameters on the estimation record (on the rows `diagnose` keeps; for a hidden
+//! effect the records cannot show and that is rightly not claimed, no worse than the model
+//! without it refitted from the truth — the truth itself is then out of the model's reach).
 
 use geared_servo::{ActuatorParams, Effect};
 use geared_servo_host::calibrate::{self, Param, BASE_KNOBS};
@@ -328,15 +330,21 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
             let w = out.weights.first().cloned().unwrap_or_default();
             calibrate::nrmse(&t, &c.estimation.with_weights(&w))
         };
-        // Reported only: the witness on the same rows (how far a model without the hidden
-        // effect can come there).
-        if let (false, Some(wp)) = (id.identifiable, id.witness) {
-            let w = out.weights.first().cloned().unwrap_or_default();
-            eprintln!(
-                "    the witness on diagnose's predictable rows of the estimation record: NRMSE {:.4}",
-                calibrate::nrmse(&wp, &c.estimation.with_weights(&w))
-            );
-        }
+        // A hidden effect the records cannot show, rightly not claimed: the final model has no
+        // such effect, and the truth (which has it) is out of its reach; the bar is then the
+        // witness (the best model without it that we know, refitted from the truth) on the
+        // same rows, without slack.
+        let witness_rows = match (id.identifiable, id.witness, out.steps.is_empty()) {
+            (false, Some(wp), true) => {
+                let w = out.weights.first().cloned().unwrap_or_default();
+                let x = calibrate::nrmse(&wp, &c.estimation.with_weights(&w));
+                eprintln!(
+                    "    the witness on diagnose's predictable rows of the estimation record: NRMSE {x:.4}"
+                );
+                Some(x)
+            }
+            _ => None,
+        };
         eprintln!(
             "    predictable rows {:.1} % of the estimation record: final {fin:.4}, true parameters {truth_pred:.4}, floor {:.4}; every row: final {:.4}",
             100.0 * (1.0 - out.unpredictable_share.first().copied().unwrap_or(0.0)),
@@ -358,7 +366,7 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
                 calibrate::nrmse(&t, &v)
             );
         }
-        let nrmse_ok = fin <= NRMSE_RATIO * truth_pred;
+        let nrmse_ok = fin <= NRMSE_RATIO * truth_pred || witness_rows.is_some_and(|x| fin <= x);
         let (vb, va) = out.validation.unwrap_or((f64::NAN, f64::NAN));
         eprintln!(
             "{:<18} {} expected {} | steps {} | unexplained {} | nrmse nominal {:.4} base {:.4} final {:.4} (true {:.4}, floor {:.4}){} | validation {:.4} -> {:.4} (true {:.4}, floor {:.4}) | {:.1} s",
