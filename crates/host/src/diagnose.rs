@@ -828,9 +828,11 @@ fn diagnose_records(
     let material = |c: f64, data: &[Data]| -> bool {
         c > opts.material_ratio.powi(2) * floor_cost(data, &sigma)
     };
+    // A fit is poor on its own rows above `poor_ratio` times their floor.
+    let poor =
+        |c: f64, data: &[Data]| -> bool { c > opts.poor_ratio.powi(2) * floor_cost(data, &sigma) };
     let mut resettled = false;
     while steps.len() < opts.max_steps && material(cur.cost, &wdata) {
-        let floor = floor_cost(&wdata, &sigma);
         // The rows a search from afar can use, under the current fit: a candidate's refit
         // searches there and is polished and judged on the fine rows.
         let sdata = weigh_smooth(&cur.params, data, opts.predictability);
@@ -871,8 +873,12 @@ fn diagnose_records(
             .map(|(e, _, c, v)| (*e, rms_nrmse(*c), *v))
             .collect();
         last_scores = score_list.clone();
-        let poor = cur.cost > opts.poor_ratio.powi(2) * floor;
-        let take = if poor { scores.len() } else { opts.refit_top };
+        let cur_poor = poor(cur.cost, &wdata);
+        let take = if cur_poor {
+            scores.len()
+        } else {
+            opts.refit_top
+        };
         let top: Vec<Effect> = scores.iter().take(take).map(|x| x.0).collect();
         let refitted: Vec<&(Effect, Knob, f64, f64)> = scores
             .iter()
@@ -887,7 +893,7 @@ fn diagnose_records(
             }
         }
         let cur_bounds = calibrate::at_bounds(&cur);
-        let two_starts = poor || !cur_bounds.is_empty();
+        let two_starts = cur_poor || !cur_bounds.is_empty();
         let mut judged: Vec<Judged> = Vec::new();
         // Local refits of every candidate taken: (effect, knobs, refit).
         let mut local: Vec<(Effect, Vec<Knob>, Fit)> = Vec::new();
@@ -996,7 +1002,7 @@ fn diagnose_records(
             .iter()
             .enumerate()
             .filter(|&(rank, &i)| {
-                (poor && rank < opts.refit_top)
+                (cur_poor && rank < opts.refit_top)
                     || local.get(i).is_some_and(|x| best_kin.contains(&x.0))
             })
             .map(|(_, &i)| i)
@@ -1291,10 +1297,8 @@ fn diagnose_records(
                 // incumbent has come through a search that found nothing: between the two
                 // fresh base settles the same rule picked the wrong basin (tach_gain/1, whose
                 // seed at 2.7 times the floor on its own rows is the right one).
-                let poor = |f: &Fit, w: &[Data]| {
-                    calibrate::cost(&f.params, w) > opts.poor_ratio.powi(2) * floor_cost(w, &sigma)
-                };
-                let stuck = poor(&cur, &wdata) && !poor(&g, &w);
+                // (Each fit's cost is its plain cost on its own rows.)
+                let stuck = poor(cur.cost, &wdata) && !poor(g.cost, &w);
                 let (c2, w2, better) = if stuck {
                     (g, w, true)
                 } else {
