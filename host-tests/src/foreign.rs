@@ -675,7 +675,14 @@ pub fn cases(draws: std::ops::Range<u64>) -> Result<Vec<ForeignCase>, HostError>
     let jobs: Vec<(Kind, u64)> = draws
         .flat_map(|d| Kind::all().into_iter().map(move |k| (k, d)))
         .collect();
-    jobs.par_iter().map(|&(k, d)| case(k, d)).collect()
+    cases_with(&jobs, &Making::default())
+}
+
+/// The cases `jobs` (kind, draw), made in parallel as `making` says, in that order.
+pub fn cases_with(jobs: &[(Kind, u64)], making: &Making) -> Result<Vec<ForeignCase>, HostError> {
+    jobs.par_iter()
+        .map(|&(k, d)| case_with(k, d, making))
+        .collect()
 }
 
 /// The standard suite: every kind for draws 0, 1 and 2 (30 cases).

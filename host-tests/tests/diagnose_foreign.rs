@@ -241,14 +241,27 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
     );
 
     let t = Instant::now();
-    let mut cases = foreign::suite().unwrap();
     // A subset for development (`GS_FOREIGN_CASES=tach_lag/0,pair/1`): the summary and the
-    // checks are then over those cases alone.
+    // checks are then over those cases alone. `GS_FOREIGN_SECONDS=20` makes the estimation
+    // records' stepped sines that long (the benchmark's 50 bursts, which the global search
+    // sees thinned: calibrate::thinned); the bars are the same.
+    let mut jobs: Vec<(Kind, u64)> = foreign::SUITE_DRAWS
+        .flat_map(|d| Kind::all().into_iter().map(move |k| (k, d)))
+        .collect();
     if let Ok(only) = std::env::var("GS_FOREIGN_CASES") {
         let wanted: Vec<&str> = only.split(',').map(str::trim).collect();
-        cases.retain(|c| wanted.contains(&c.label().as_str()));
-        assert!(!cases.is_empty(), "GS_FOREIGN_CASES={only}: no such case");
+        jobs.retain(|(k, d)| wanted.contains(&format!("{}/{d}", k.name()).as_str()));
+        assert!(!jobs.is_empty(), "GS_FOREIGN_CASES={only}: no such case");
     }
+    let mut making = foreign::Making::default();
+    if let Ok(s) = std::env::var("GS_FOREIGN_SECONDS") {
+        let secs: f64 = s
+            .trim()
+            .parse()
+            .expect("GS_FOREIGN_SECONDS: a number of seconds");
+        making.stepped_sine = foreign::SteppedSine::lasting(secs);
+    }
+    let cases = foreign::cases_with(&jobs, &making).unwrap();
     let gen = t.elapsed();
     eprintln!(
         "generated {} cases in {:.1} s (estimation {:.1} s, validation {:.1} s of 2 kHz data each)",

@@ -181,45 +181,13 @@ pub fn assess(p: &ActuatorParams, d: &Data) -> Predictability {
     }
 }
 
-/// A start from rest: the command leaves a zero run at least this long, s.
-pub const REST_S: f64 = 0.05;
+pub use crate::calibrate::REST_S;
 /// A restarted copy is compared with the model from this long after the start, s (the
 /// transient of the moved gears has decayed by then at 1 % of critical damping and 100 Hz).
 pub const RESTART_SETTLE_S: f64 = 0.1;
 /// ... and the burst is unpredictable when their RMS difference there exceeds this share of
 /// the model's RMS (the [`WIDE`] line).
 pub const RESTART_LINE: f64 = 0.1;
-
-/// Rows where the command leaves a zero run (below 1 % of its largest magnitude) of at least
-/// [`REST_S`], with the row where the next such run begins (or the record's end).
-fn restarts(d: &Data) -> Vec<(usize, usize)> {
-    let peak = d.volts.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let zero = 0.01 * peak;
-    let min_run = ((REST_S / d.sample_period_s).round() as usize).max(1);
-    // Zero runs as (first row, one past the last).
-    let mut runs: Vec<(usize, usize)> = Vec::new();
-    let mut lo: Option<usize> = None;
-    for (k, v) in d.volts.iter().enumerate() {
-        match (v.abs() < zero, lo) {
-            (true, None) => lo = Some(k),
-            (false, Some(a)) => {
-                if k - a >= min_run {
-                    runs.push((a, k));
-                }
-                lo = None;
-            }
-            _ => {}
-        }
-    }
-    runs.iter()
-        .enumerate()
-        .map(|(i, &(_, start))| {
-            let end = runs.get(i + 1).map(|r| r.0).unwrap_or(d.volts.len());
-            (start, end)
-        })
-        .filter(|&(start, end)| start < end)
-        .collect()
-}
 
 /// Row weights of the restart test: a burst that starts from rest is unpredictable when a copy
 /// of the model whose gears rest elsewhere in the gap at its start (mirrored about the gap's
@@ -241,7 +209,7 @@ pub fn assess_restarts(p: &ActuatorParams, d: &Data) -> Vec<f64> {
 fn restarts_around(p: &ActuatorParams, d: &Data, center: &[f64]) -> Vec<f64> {
     let n = d.y.len();
     let mut weight = vec![1.0; n];
-    let starts = restarts(d);
+    let starts = d.restarts();
     let Some(delta) = p.derived().ok().map(|x| x.delta_rad as f32) else {
         return weight;
     };
@@ -602,7 +570,7 @@ mod tests {
             ],
             &REFERENCE,
         );
-        let s = restarts(&d);
+        let s = d.restarts();
         // The first sample of each sine is 0 and belongs to the zero run before it; the
         // 20 ms pause is shorter than REST_S and starts nothing.
         assert_eq!(s.len(), 2, "{s:?}");
@@ -617,7 +585,7 @@ mod tests {
     #[test]
     fn a_record_without_rests_keeps_every_row() {
         let d = record(&[(0.6, 8.0, 120.0)], &REFERENCE);
-        assert!(restarts(&d).is_empty());
+        assert!(d.restarts().is_empty());
         assert!(assess_restarts(&REFERENCE, &d).iter().all(|w| *w == 1.0));
     }
 
@@ -635,7 +603,7 @@ mod tests {
             ],
             &p,
         );
-        assert_eq!(restarts(&d).len(), 2);
+        assert_eq!(d.restarts().len(), 2);
         let w = assess_restarts(&p, &d);
         assert!(w.iter().all(|x| *x == 1.0));
     }
