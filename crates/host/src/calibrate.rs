@@ -982,7 +982,7 @@ pub fn inseparable(fit: &Fit, limit: f64) -> Vec<(String, String, f64)> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use geared_servo::REFERENCE;
 
@@ -990,24 +990,15 @@ mod tests {
     /// Rows of one piece of [`stepped`]: a 0.1 s rest and a 0.3 s burst.
     const PIECE: usize = 800;
 
-    /// A stepped sine of `bursts` bursts (0.3 s at 10 V, 20 Hz up in steps of 10 Hz), each
-    /// after a 0.1 s rest, whose output is `p`'s own tachometer (or the row index without
-    /// `p`, to trace which rows a thinning keeps).
-    fn stepped(bursts: usize, p: Option<&ActuatorParams>) -> Data {
-        let mut volts = Vec::new();
-        for b in 0..bursts {
-            volts.extend(std::iter::repeat_n(0.0, 200));
-            let f = 20.0 + 10.0 * b as f64;
-            volts.extend(
-                (0..600).map(|k| 10.0 * (2.0 * std::f64::consts::PI * f * k as f64 * H).sin()),
-            );
-        }
+    /// A record of the commands `volts` sampled every `h` s whose output is `p`'s own
+    /// tachometer (or the row index without `p`, to trace which rows a thinning keeps).
+    pub(crate) fn data_of(volts: Vec<f64>, h: f64, p: Option<&ActuatorParams>) -> Data {
         let n = volts.len();
         let mut d = Data {
             volts,
             y: (0..n).map(|k| k as f64).collect(),
             output: "tach_v".to_string(),
-            sample_period_s: H,
+            sample_period_s: h,
             preroll: 0,
             weight: vec![1.0; n],
             norm: 1.0,
@@ -1018,6 +1009,20 @@ mod tests {
         }
         d.norm = weighted_norm(&d.y, &d.weight).1;
         d
+    }
+
+    /// A stepped sine of `bursts` bursts (0.3 s at 10 V, 20 Hz up in steps of 10 Hz), each
+    /// after a 0.1 s rest ([`data_of`]).
+    fn stepped(bursts: usize, p: Option<&ActuatorParams>) -> Data {
+        let mut volts = Vec::new();
+        for b in 0..bursts {
+            volts.extend(std::iter::repeat_n(0.0, 200));
+            let f = 20.0 + 10.0 * b as f64;
+            volts.extend(
+                (0..600).map(|k| 10.0 * (2.0 * std::f64::consts::PI * f * k as f64 * H).sin()),
+            );
+        }
+        data_of(volts, H, p)
     }
 
     #[test]

@@ -520,7 +520,6 @@ pub fn weigh(p: &ActuatorParams, d: &Data) -> (Data, Predictability) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::residual::weighted_norm;
     use geared_servo::REFERENCE;
 
     const H: f64 = 5e-4;
@@ -539,22 +538,7 @@ mod tests {
                 volts.push(amp * (2.0 * core::f64::consts::PI * f * t).sin());
             }
         }
-        let n = volts.len();
-        let mut d = Data {
-            volts,
-            y: vec![0.0; n],
-            output: "tach_v".to_string(),
-            sample_period_s: H,
-            preroll: 0,
-            weight: vec![1.0; n],
-            norm: 1.0,
-            robust: None,
-        };
-        if let Some(t) = calibrate::simulate(p, &d) {
-            d.y = t.y;
-        }
-        d.norm = weighted_norm(&d.y, &d.weight).1;
-        d
+        crate::calibrate::tests::data_of(volts, H, Some(p))
     }
 
     #[test]
