@@ -442,9 +442,9 @@ impl ForeignCase {
         }
     }
 
-    /// `kind/draw`, for reports.
+    /// `kind/draw`, for reports ([`label`]).
     pub fn label(&self) -> String {
-        format!("{}/{}", self.kind.name(), self.draw)
+        label(self.kind, self.draw)
     }
 }
 
@@ -672,10 +672,19 @@ fn by_burst(p: &ActuatorParams, d: &Data, clean: &[f64], ss: &SteppedSine) -> Ve
 /// Every kind for every draw of `draws`, made in parallel, in the order kind-major within
 /// each draw (draw 0: clean, the seven effects, pair, second mode; then draw 1 …).
 pub fn cases(draws: std::ops::Range<u64>) -> Result<Vec<ForeignCase>, HostError> {
-    let jobs: Vec<(Kind, u64)> = draws
+    cases_with(&jobs(draws), &Making::default())
+}
+
+/// Every (kind, draw) of `draws`, in the order of [`cases`].
+pub fn jobs(draws: std::ops::Range<u64>) -> Vec<(Kind, u64)> {
+    draws
         .flat_map(|d| Kind::all().into_iter().map(move |k| (k, d)))
-        .collect();
-    cases_with(&jobs, &Making::default())
+        .collect()
+}
+
+/// `kind/draw`: the label of case `(kind, draw)` in reports and in `GS_FOREIGN_CASES`.
+pub fn label(kind: Kind, draw: u64) -> String {
+    format!("{}/{}", kind.name(), draw)
 }
 
 /// The cases `jobs` (kind, draw), made in parallel as `making` says, in that order.

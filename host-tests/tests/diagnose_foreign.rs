@@ -245,12 +245,10 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
     // checks are then over those cases alone. `GS_FOREIGN_SECONDS=20` makes the estimation
     // records' stepped sines that long (the benchmark's 50 bursts, which the global search
     // sees thinned: calibrate::thinned); the bars are the same.
-    let mut jobs: Vec<(Kind, u64)> = foreign::SUITE_DRAWS
-        .flat_map(|d| Kind::all().into_iter().map(move |k| (k, d)))
-        .collect();
+    let mut jobs = foreign::jobs(foreign::SUITE_DRAWS);
     if let Ok(only) = std::env::var("GS_FOREIGN_CASES") {
         let wanted: Vec<&str> = only.split(',').map(str::trim).collect();
-        jobs.retain(|(k, d)| wanted.contains(&format!("{}/{d}", k.name()).as_str()));
+        jobs.retain(|&(k, d)| wanted.contains(&foreign::label(k, d).as_str()));
         assert!(!jobs.is_empty(), "GS_FOREIGN_CASES={only}: no such case");
     }
     let mut making = foreign::Making::default();

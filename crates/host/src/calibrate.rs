@@ -229,13 +229,11 @@ impl Data {
         }
         // Piece boundaries: where each burst begins (a piece is a burst with the rest after
         // it; the first also holds what precedes the second burst).
-        let mut cuts: Vec<usize> = vec![0];
-        for &(start, _) in starts.iter().skip(1) {
-            if start > cuts.last().copied().unwrap_or(0) {
-                cuts.push(start);
-            }
-        }
-        cuts.push(n);
+        // (The starts rise strictly and lie below n.)
+        let cuts: Vec<usize> = std::iter::once(0)
+            .chain(starts.iter().skip(1).map(|s| s.0))
+            .chain(std::iter::once(n))
+            .collect();
         let pieces: Vec<(usize, usize)> = cuts.windows(2).map(|w| (w[0], w[1])).collect();
         let keep: Vec<(usize, usize)> = pieces.iter().step_by(k).copied().collect();
         let take = |src: &[f64]| -> Vec<f64> {
@@ -1033,7 +1031,7 @@ pub(crate) mod tests {
             d.weight[k] = 0.0;
         }
         let t = d.thinned(4000);
-        // k = 8000 / 4000 = 2: bursts 0, 2, 4, 6, 8 with the rests before them.
+        // k = 8000 / 4000 = 2: bursts 0, 2, 4, 6, 8, each with the rest after it.
         for b in 0..10 {
             let middle = (b * PIECE + 500) as f64;
             assert_eq!(t.y.contains(&middle), b % 2 == 0, "burst {b}");
