@@ -12,7 +12,7 @@
 use crate::error::HostError;
 use crate::record::Record;
 use crate::residual::weighted_norm;
-use geared_servo::{ActuatorParams, Plant, PlantState};
+use geared_servo::{ActuatorParams, Outputs, Plant, PlantState};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
 use rayon::prelude::*;
@@ -284,8 +284,50 @@ pub fn simulate(p: &ActuatorParams, d: &Data) -> Option<Trace> {
 pub fn simulate_with(
     p: &ActuatorParams,
     d: &Data,
-    mut hook: impl FnMut(usize, &mut PlantState),
+    hook: impl FnMut(usize, &mut PlantState),
 ) -> Option<Trace> {
+    let n = d.volts.len();
+    let mut t = Trace {
+        y: Vec::with_capacity(n),
+        motor_speed: Vec::with_capacity(n),
+        current: Vec::with_capacity(n),
+        contact: Vec::with_capacity(n),
+    };
+    run(p, d, hook, |y, o| {
+        t.y.push(y);
+        t.motor_speed.push(f64::from(o.motor_speed_rad_s));
+        t.current.push(f64::from(o.current_a));
+        t.contact.push(o.in_contact);
+    })?;
+    Some(t)
+}
+
+/// The fitted output alone of [`simulate`] (what a cost needs: the searches run it tens of
+/// thousands of times, and the other columns of a [`Trace`] cost a tenth of the run).
+pub fn output(p: &ActuatorParams, d: &Data) -> Option<Vec<f64>> {
+    output_with(p, d, |_, _| {})
+}
+
+/// [`output`] with [`simulate_with`]'s hook.
+pub fn output_with(
+    p: &ActuatorParams,
+    d: &Data,
+    hook: impl FnMut(usize, &mut PlantState),
+) -> Option<Vec<f64>> {
+    let mut y = Vec::with_capacity(d.volts.len());
+    run(p, d, hook, |v, _| y.push(v))?;
+    Some(y)
+}
+
+/// The run behind [`simulate_with`] and [`output_with`]: `take(y, outputs)` receives each
+/// row's fitted output and all outputs, then `hook` may move the state before the row's
+/// voltage is applied.
+fn run(
+    p: &ActuatorParams,
+    d: &Data,
+    mut hook: impl FnMut(usize, &mut PlantState),
+    mut take: impl FnMut(f64, &Outputs),
+) -> Option<()> {
     let mut q = *p;
     q.sample_period_s = d.sample_period_s;
     let plant = Plant::new(&q).ok()?;
@@ -295,14 +337,7 @@ pub fn simulate_with(
         plant.step(&mut st, v0);
     }
     let mut o = plant.outputs(&st);
-    let n = d.volts.len();
-    let mut t = Trace {
-        y: Vec::with_capacity(n),
-        motor_speed: Vec::with_capacity(n),
-        current: Vec::with_capacity(n),
-        contact: Vec::with_capacity(n),
-    };
-    for &v in &d.volts {
+    for (k, &v) in d.volts.iter().enumerate() {
         let y = match d.output.as_str() {
             "motor_speed_rad_s" => o.motor_speed_rad_s,
             "load_angle_deg" => o.load_angle_deg(),
@@ -310,21 +345,18 @@ pub fn simulate_with(
             "current_a" => o.current_a,
             _ => o.tach_voltage_v,
         };
-        t.y.push(f64::from(y));
-        t.motor_speed.push(f64::from(o.motor_speed_rad_s));
-        t.current.push(f64::from(o.current_a));
-        t.contact.push(o.in_contact);
-        hook(t.y.len() - 1, &mut st);
+        take(f64::from(y), &o);
+        hook(k, &mut st);
         o = plant.step(&mut st, v as f32);
     }
-    Some(t)
+    Some(())
 }
 
 /// NRMSE of `p` on `d` over its weighted rows (∞ if `p` is invalid).
 pub fn nrmse(p: &ActuatorParams, d: &Data) -> f64 {
-    match simulate(p, d) {
-        Some(t) => {
-            t.y.iter()
+    match output(p, d) {
+        Some(y) => {
+            y.iter()
                 .zip(&d.y)
                 .zip(&d.weight)
                 .map(|((a, b), w)| w * (a - b).powi(2))
@@ -344,9 +376,9 @@ pub fn residuals(p: &ActuatorParams, data: &[Data]) -> DVector<f64> {
     let mut r = Vec::with_capacity(m);
     for d in data {
         let start = r.len();
-        match simulate(p, d) {
-            Some(t) => r.extend(
-                t.y.iter()
+        match output(p, d) {
+            Some(y) => r.extend(
+                y.iter()
                     .zip(&d.y)
                     .zip(&d.weight)
                     .map(|((a, b), wk)| w * wk.sqrt() * (b - a) / d.norm),
@@ -536,6 +568,56 @@ pub fn levenberg_marquardt_with(
     data: &[Data],
     patience: usize,
 ) -> Fit {
+    let (z, point, cost_start, evaluations) = lm_point(p0, knobs, data, patience);
+    let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, k.param))).collect();
+    let moved = z
+        .iter()
+        .zip(&z0)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    let values: Vec<f64> = knobs.iter().zip(&z).map(|(k, &zi)| k.from_z(zi)).collect();
+    let (std_errors, correlations) = covariance(p0, knobs, data, &z, point.cost);
+    Fit {
+        params: point.params,
+        knobs: knobs.to_vec(),
+        values,
+        std_errors,
+        correlations,
+        cost_start,
+        cost: point.cost,
+        moved,
+        evaluations,
+    }
+}
+
+/// A point of the parameter space and its cost: what a search step hands to the next, which
+/// needs no standard errors (their Jacobian costs two runs per knob).
+#[derive(Clone, Copy, Debug)]
+pub struct Point {
+    /// The parameters.
+    pub params: ActuatorParams,
+    /// Their cost (mean over records of NRMSE²) on the rows the step was judged on.
+    pub cost: f64,
+}
+
+impl From<&Fit> for Point {
+    fn from(f: &Fit) -> Point {
+        Point {
+            params: f.params,
+            cost: f.cost,
+        }
+    }
+}
+
+/// Levenberg–Marquardt from `p0` as in [`levenberg_marquardt_with`], without the
+/// covariance: (internal coordinates, the point and its cost, the start's cost, residual
+/// evaluations).
+fn lm_point(
+    p0: &ActuatorParams,
+    knobs: &[Knob],
+    data: &[Data],
+    patience: usize,
+) -> (Vec<f64>, Point, f64, usize) {
     let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, k.param))).collect();
     let cost_start = cost(p0, data);
     let mut prob = Problem {
@@ -556,28 +638,16 @@ pub fn levenberg_marquardt_with(
     let mut c = cost(&params, data);
     if c.is_nan() || c > cost_start {
         // The optimiser can stop at a worse point when the cost is not smooth: keep the start.
-        z = z0.clone();
+        z = z0;
         params = *p0;
         c = cost_start;
     }
-    let moved = z
-        .iter()
-        .zip(&z0)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
-    let values: Vec<f64> = knobs.iter().zip(&z).map(|(k, &zi)| k.from_z(zi)).collect();
-    let (std_errors, correlations) = covariance(p0, knobs, data, &z, c);
-    Fit {
-        params,
-        knobs: knobs.to_vec(),
-        values,
-        std_errors,
-        correlations,
+    (
+        z,
+        Point { params, cost: c },
         cost_start,
-        cost: c,
-        moved,
-        evaluations: report.number_of_evaluations,
-    }
+        report.number_of_evaluations,
+    )
 }
 
 /// Gauss–Newton covariance σ² (JᵀJ)⁻¹ at `z`, mapped to standard errors in each unit.
@@ -871,6 +941,16 @@ pub fn polish(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], patience: usiz
     plain(fit, p0, data)
 }
 
+/// [`polish`] without the standard errors: the point and its plain cost on `data`, for a
+/// step whose result is searched or polished further.
+pub fn polish_point(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], patience: usize) -> Point {
+    let (_, p, _, _) = lm_point(p0, knobs, &robust(data), patience);
+    Point {
+        params: p.params,
+        cost: cost(&p.params, data),
+    }
+}
+
 /// Calibrates `knobs` from `p0`: the cost is multimodal (MODEL.md: backlash lowers the notch
 /// by an amount that depends on the amplitude, inertia does not, and a fit from the file can
 /// stop in the basin that trades one for the other) and, on records of a rig, a patchwork of
@@ -891,6 +971,38 @@ pub fn calibrate_seeded(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], seed
     if knobs.is_empty() {
         return levenberg_marquardt(p0, knobs, data);
     }
+    let best = global_start(p0, knobs, data, seed);
+    let fit = levenberg_marquardt(&best, knobs, &robust(data));
+    let mut fit = plain(fit, p0, data);
+    fit.moved = moved_from(p0, knobs, &fit.values);
+    fit
+}
+
+/// [`calibrate_seeded`] without the standard errors: the point with its plain cost on
+/// `data`, and how far it moved from `p0` ([`Fit::moved`]).
+pub fn calibrate_point(
+    p0: &ActuatorParams,
+    knobs: &[Knob],
+    data: &[Data],
+    seed: u64,
+) -> (Point, f64) {
+    if knobs.is_empty() {
+        let f = levenberg_marquardt(p0, knobs, data);
+        return (Point::from(&f), f.moved);
+    }
+    let best = global_start(p0, knobs, data, seed);
+    let (z, p, _, _) = lm_point(&best, knobs, &robust(data), 20);
+    let values: Vec<f64> = knobs.iter().zip(&z).map(|(k, &zi)| k.from_z(zi)).collect();
+    let point = Point {
+        params: p.params,
+        cost: cost(&p.params, data),
+    };
+    (point, moved_from(p0, knobs, &values))
+}
+
+/// The best point of the global search of [`calibrate_seeded`] (CMA-ES from `p0` and from
+/// the record's frequency response, on the thinned robust records).
+fn global_start(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], seed: u64) -> ActuatorParams {
     let rdata = robust(data);
     let has = |param: Param| knobs.iter().any(|k| k.param == param);
     let mut starts = vec![*p0];
@@ -907,22 +1019,21 @@ pub fn calibrate_seeded(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], seed
     }
     let budget = EVALS_PER_KNOB * knobs.len() / starts.len();
     let search = thinned(&rdata);
-    let best = starts
+    starts
         .iter()
         .map(|q| evolve_with(q, knobs, &search, POPULATION, budget, 0.5, seed))
         .min_by(|a, b| a.0.total_cmp(&b.0))
         .map(|(_, q)| q)
-        .unwrap_or(*p0);
-    let fit = levenberg_marquardt(&best, knobs, &rdata);
-    let mut fit = plain(fit, p0, data);
-    let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, k.param))).collect();
-    fit.moved = knobs
+        .unwrap_or(*p0)
+}
+
+/// Largest change of any knob from `p0` to `values`, in internal coordinates.
+fn moved_from(p0: &ActuatorParams, knobs: &[Knob], values: &[f64]) -> f64 {
+    knobs
         .iter()
-        .zip(&fit.values)
-        .zip(&z0)
-        .map(|((k, &v), &a)| (k.to_z(v) - a).abs())
-        .fold(0.0, f64::max);
-    fit
+        .zip(values)
+        .map(|(k, &v)| (k.to_z(v) - k.to_z(get(p0, k.param))).abs())
+        .fold(0.0, f64::max)
 }
 
 /// A local search around `p0` on the robust window loss: CMA-ES with a step of a tenth of

@@ -34,7 +34,7 @@
 //! `unexplained` is true when a material residual remains above the floor on the predictable
 //! rows and no candidate explains it.
 
-use crate::calibrate::{self, Data, Fit, Knob, Param};
+use crate::calibrate::{self, Data, Fit, Knob, Param, Point};
 use crate::error::HostError;
 use crate::noise;
 use crate::predictability;
@@ -198,12 +198,12 @@ fn analyse(p: &ActuatorParams, d: &Data) -> Result<(Analysis, calibrate::Trace),
 fn effective_samples(p: &ActuatorParams, data: &[Data]) -> f64 {
     let n: f64 = data.iter().map(Data::weight_sum).sum();
     let Some(d) = data.first() else { return 1.0 };
-    let Some(t) = calibrate::simulate(p, d) else {
+    let Some(t) = calibrate::output(p, d) else {
         return 1.0;
     };
     let e: Vec<f64> =
         d.y.iter()
-            .zip(&t.y)
+            .zip(&t)
             .zip(&d.weight)
             .map(|((a, b), w)| w.sqrt() * (a - b))
             .collect();
@@ -282,16 +282,14 @@ fn settle_seeded(
     let mut moved = 0.0;
     for round in 0..SETTLE_ROUNDS {
         let w = weigh_smooth(&p, data, on);
-        let f = if round == 0 && global {
-            calibrate::calibrate_seeded(&p, knobs, &w, seed)
+        p = if round == 0 && global {
+            let (f, m) = calibrate::calibrate_point(&p, knobs, &w, seed);
+            moved = m;
+            f.params
         } else {
             let q = calibrate::refine(&p, knobs, &w);
-            calibrate::polish(&q, knobs, &w, 20)
+            calibrate::polish_point(&q, knobs, &w, 20).params
         };
-        if round == 0 {
-            moved = f.moved;
-        }
-        p = f.params;
     }
     let w = weigh(&p, data, on);
     let mut fit = calibrate::polish(&p, knobs, &w, 20);
@@ -792,11 +790,11 @@ fn diagnose_records(
     // the records from where it stands and the search goes on from there.
     let (mut cur, mut wdata, mut base, steps_so_far) = match resume {
         None => {
-            let (mut base, wdata, _) = better_on_common(
-                settle_seeded(&start, &knobs, data, opts.predictability, true, 0),
-                settle_seeded(&start, &knobs, data, opts.predictability, true, 1),
-                data,
+            let (a, b) = rayon::join(
+                || settle_seeded(&start, &knobs, data, opts.predictability, true, 0),
+                || settle_seeded(&start, &knobs, data, opts.predictability, true, 1),
             );
+            let (mut base, wdata, _) = better_on_common(a, b, data);
             base.cost_start = calibrate::cost(&nominal, &wdata);
             (base.clone(), wdata, base, Vec::new())
         }
@@ -842,7 +840,7 @@ fn diagnose_records(
         // credited to an effect).
         {
             let (p1, _) = calibrate::coarse_search(&cur.params, &cur.knobs, &rdata, 1);
-            let f1 = calibrate::polish(&p1, &cur.knobs, &sdata, 8);
+            let f1 = calibrate::polish_point(&p1, &cur.knobs, &sdata, 8);
             let null = calibrate::polish(&f1.params, &cur.knobs, &wdata, 8);
             if null.cost < cur.cost {
                 let (cost_start, moved) = (cur.cost_start, cur.moved);
@@ -895,61 +893,63 @@ fn diagnose_records(
         let cur_bounds = calibrate::at_bounds(&cur);
         let two_starts = cur_poor || !cur_bounds.is_empty();
         let mut judged: Vec<Judged> = Vec::new();
-        // Local refits of every candidate taken: (effect, knobs, refit).
-        let mut local: Vec<(Effect, Vec<Knob>, Fit)> = Vec::new();
-        for (e, k, _, v) in refitted.iter().map(|x| (&x.0, &x.1, &x.2, &x.3)) {
-            let mut ks: Vec<Knob> = cur
-                .knobs
-                .iter()
-                .filter(|x| x.param != k.param)
-                .cloned()
-                .collect();
-            ks.push(k.clone());
-            let starts: Vec<ActuatorParams> = if two_starts {
-                vec![cur.params, from_file]
-            } else {
-                vec![cur.params]
-            };
-            let mut best: Option<Fit> = None;
-            for start in starts {
-                // Start the effect at the better (by the actual cost) of the projection's
-                // value and the best of its grid with everything else held: the projection
-                // is linear and can undershoot a strongly nonlinear effect.
-                let mut p = start;
-                if *v != 0.0 {
-                    calibrate::set(&mut p, k.param, *v);
-                }
-                let mut best_c = calibrate::cost(&p, &rdata);
-                let tried: Vec<(f64, ActuatorParams)> = grid(&start, *e, k, max_v)
-                    .par_iter()
-                    .map(|&g| {
-                        let mut q = start;
-                        calibrate::set(&mut q, k.param, g);
-                        (calibrate::cost(&q, &rdata), q)
-                    })
+        // Local refits of every candidate taken: (effect, knobs, refit), the candidates in
+        // parallel.
+        let mut local: Vec<(Effect, Vec<Knob>, Point)> = refitted
+            .par_iter()
+            .filter_map(|x| {
+                let (e, k, v) = (&x.0, &x.1, &x.3);
+                let mut ks: Vec<Knob> = cur
+                    .knobs
+                    .iter()
+                    .filter(|x| x.param != k.param)
+                    .cloned()
                     .collect();
-                for (c, q) in tried {
-                    if c < best_c || calibrate::get(&p, k.param) == 0.0 {
-                        best_c = c;
-                        p = q;
+                ks.push(k.clone());
+                let starts: Vec<ActuatorParams> = if two_starts {
+                    vec![cur.params, from_file]
+                } else {
+                    vec![cur.params]
+                };
+                let mut best: Option<Point> = None;
+                for start in starts {
+                    // Start the effect at the better (by the actual cost) of the projection's
+                    // value and the best of its grid with everything else held: the
+                    // projection is linear and can undershoot a strongly nonlinear effect.
+                    let mut p = start;
+                    if *v != 0.0 {
+                        calibrate::set(&mut p, k.param, *v);
+                    }
+                    let mut best_c = calibrate::cost(&p, &rdata);
+                    let tried: Vec<(f64, ActuatorParams)> = grid(&start, *e, k, max_v)
+                        .par_iter()
+                        .map(|&g| {
+                            let mut q = start;
+                            calibrate::set(&mut q, k.param, g);
+                            (calibrate::cost(&q, &rdata), q)
+                        })
+                        .collect();
+                    for (c, q) in tried {
+                        if c < best_c || calibrate::get(&p, k.param) == 0.0 {
+                            best_c = c;
+                            p = q;
+                        }
+                    }
+                    let (p1, _) = calibrate::coarse_search(&p, &ks, &rdata, 1);
+                    let f1 = calibrate::polish_point(&p1, &ks, &sdata, 8);
+                    let fit = calibrate::polish_point(&f1.params, &ks, &wdata, 8);
+                    if best.as_ref().is_none_or(|b| fit.cost < b.cost) {
+                        best = Some(fit);
                     }
                 }
-                let (p1, _) = calibrate::coarse_search(&p, &ks, &rdata, 1);
-                let f1 = calibrate::polish(&p1, &ks, &sdata, 8);
-                let fit = calibrate::polish(&f1.params, &ks, &wdata, 8);
-                if best.as_ref().is_none_or(|b| fit.cost < b.cost) {
-                    best = Some(fit);
-                }
-            }
-            if let Some(fit) = best {
-                local.push((*e, ks, fit));
-            }
-        }
+                best.map(|fit| (*e, ks, fit))
+            })
+            .collect();
         // Kin start: a candidate whose kin's local refit did better starts once more from
         // that refit, with the kin switched back and the candidate at the best of its grid
         // (a spring and gravity are the same torque at small angles: the one that found
         // the basin shows the other where it is).
-        let swaps: Vec<(usize, Fit)> = (0..local.len())
+        let swaps: Vec<(usize, Point)> = (0..local.len())
             .into_par_iter()
             .filter_map(|i| {
                 let (e, ks, f) = local.get(i)?;
@@ -971,8 +971,8 @@ fn diagnose_records(
                         best = (c, r);
                     }
                 }
-                let f1 = calibrate::polish(&best.1, ks, &sdata, 8);
-                let fit = calibrate::polish(&f1.params, ks, &wdata, 8);
+                let f1 = calibrate::polish_point(&best.1, ks, &sdata, 8);
+                let fit = calibrate::polish_point(&f1.params, ks, &wdata, 8);
                 (fit.cost < f.cost).then_some((i, fit))
             })
             .collect();
@@ -1011,10 +1011,10 @@ fn diagnose_records(
         // Which is the better is judged as the candidate is, on its own predictable rows
         // against the current model (a global refit can do better on the rows it keeps by
         // calling rough the very rows where its effect shows).
-        let mut alts: Vec<Vec<Fit>> = vec![Vec::new(); local.len()];
+        let mut alts: Vec<Vec<Point>> = vec![Vec::new(); local.len()];
         if !structural.is_empty() {
             let globals: Vec<(usize, (Fit, Vec<Data>))> = structural
-                .iter()
+                .par_iter()
                 .filter_map(|&i| {
                     let (_, ks, f) = local.get(i)?;
                     let k = ks.last()?;
@@ -1025,37 +1025,45 @@ fn diagnose_records(
                 .collect();
             for (i, g) in globals {
                 if let Some(slot) = alts.get_mut(i) {
-                    slot.push(g.0);
+                    slot.push(Point::from(&g.0));
                 }
             }
         }
-        for ((e, ks, fit), more) in local.into_iter().zip(alts) {
+        // The candidate is a model of its own, with its own predictable rows: polished there,
+        // and compared with the current model on the rows both keep (a model must not be
+        // judged on rows that another one chose, where it may be the chaotic one). Each
+        // candidate's better refit, the candidates in parallel:
+        // (cost over the current model's, fit, own rows, common rows, fit cost, current cost)
+        type Alt = (f64, Fit, Vec<Data>, Vec<Data>, f64, f64);
+        let chosen_alts: Vec<Option<Alt>> = local
+            .par_iter()
+            .zip(alts)
+            .map(|((_, ks, fit), more)| {
+                let mut best: Option<Alt> = None;
+                for f in std::iter::once(*fit).chain(more) {
+                    let own = weigh(&f.params, data, opts.predictability);
+                    let mut f = calibrate::polish(&f.params, ks, &own, 8);
+                    // The polish can move it to where other rows are predictable: its rows
+                    // and cost are taken anew where it ended.
+                    let own = weigh(&f.params, data, opts.predictability);
+                    f.cost = calibrate::cost(&f.params, &own);
+                    let common = common_rows(data, &wdata, &own);
+                    let fit_c = calibrate::cost(&f.params, &common);
+                    let cur_c = calibrate::cost(&cur.params, &common);
+                    let r = fit_c / cur_c;
+                    if best.as_ref().is_none_or(|b| r < b.0) {
+                        best = Some((r, f, own, common, fit_c, cur_c));
+                    }
+                }
+                best
+            })
+            .collect();
+        for ((e, ks, _), best) in local.into_iter().zip(chosen_alts) {
             let e = &e;
             let Some(k) = ks.last().cloned() else {
                 continue;
             };
             let k = &k;
-            // The candidate is a model of its own, with its own predictable rows: polished
-            // there, and compared with the current model on the rows both keep (a model must
-            // not be judged on rows that another one chose, where it may be the chaotic one).
-            // (cost over the current model's, fit, own rows, common rows, fit cost, current cost)
-            type Alt = (f64, Fit, Vec<Data>, Vec<Data>, f64, f64);
-            let mut best: Option<Alt> = None;
-            for f in std::iter::once(fit).chain(more) {
-                let own = weigh(&f.params, data, opts.predictability);
-                let mut f = calibrate::polish(&f.params, &ks, &own, 8);
-                // The polish can move it to where other rows are predictable: its rows and
-                // cost are taken anew where it ended.
-                let own = weigh(&f.params, data, opts.predictability);
-                f.cost = calibrate::cost(&f.params, &own);
-                let common = common_rows(data, &wdata, &own);
-                let fit_c = calibrate::cost(&f.params, &common);
-                let cur_c = calibrate::cost(&cur.params, &common);
-                let r = fit_c / cur_c;
-                if best.as_ref().is_none_or(|b| r < b.0) {
-                    best = Some((r, f, own, common, fit_c, cur_c));
-                }
-            }
             let Some((_, fit, own, common, fit_c, cur_c)) = best else {
                 continue;
             };

@@ -144,17 +144,17 @@ pub const WIDE: Settings = Settings {
 /// case but one (tach_current_coupling/0, 1.6 with every setting).
 pub fn assess(p: &ActuatorParams, d: &Data) -> Predictability {
     // The model's own run is shared by the three tests.
-    let Some(center) = calibrate::simulate(p, d) else {
+    let Some(center) = calibrate::output(p, d) else {
         return Predictability::all(d.y.len());
     };
     let ((a, b), c) = rayon::join(
         || {
             rayon::join(
-                || assess_around(p, d, &Settings::default(), &center.y),
-                || assess_around(p, d, &WIDE, &center.y),
+                || assess_around(p, d, &Settings::default(), &center),
+                || assess_around(p, d, &WIDE, &center),
             )
         },
-        || restarts_around(p, d, &center.y),
+        || restarts_around(p, d, &center),
     );
     let weight: Vec<f64> = a
         .weight
@@ -199,8 +199,8 @@ pub const RESTART_LINE: f64 = 0.1;
 /// [`RESTART_SETTLE_S`] after the start, when a mere transient has decayed; every row weighs 1
 /// on a record without starts from rest (a square wave, a multisine).
 pub fn assess_restarts(p: &ActuatorParams, d: &Data) -> Vec<f64> {
-    match calibrate::simulate(p, d) {
-        Some(center) => restarts_around(p, d, &center.y),
+    match calibrate::output(p, d) {
+        Some(center) => restarts_around(p, d, &center),
         None => vec![1.0; d.y.len()],
     }
 }
@@ -217,7 +217,7 @@ fn restarts_around(p: &ActuatorParams, d: &Data, center: &[f64]) -> Vec<f64> {
         return weight;
     }
     let kicks: Vec<usize> = starts.iter().map(|s| s.0).collect();
-    let moved = calibrate::simulate_with(p, d, |k, st| {
+    let moved = calibrate::output_with(p, d, |k, st| {
         if kicks.binary_search(&k).is_ok() {
             let x = st.twist_rad;
             st.twist_rad = if x.abs() > 0.25 * delta {
@@ -241,7 +241,7 @@ fn restarts_around(p: &ActuatorParams, d: &Data, center: &[f64]) -> Vec<f64> {
         let (mut diff, mut sig) = (0.0, 0.0);
         for k in lo..end {
             let c = center.get(k).copied().unwrap_or(0.0);
-            let m = moved.y.get(k).copied().unwrap_or(c);
+            let m = moved.get(k).copied().unwrap_or(c);
             diff += (m - c).powi(2);
             sig += c * c;
         }
@@ -262,8 +262,8 @@ fn restarts_around(p: &ActuatorParams, d: &Data, center: &[f64]) -> Vec<f64> {
 /// while the motion goes on, even where their spread happens to be small), and is widened by
 /// one window on each side. Everything is predictable when the model cannot be run.
 pub fn assess_with(p: &ActuatorParams, d: &Data, s: &Settings) -> Predictability {
-    match calibrate::simulate(p, d) {
-        Some(center) => assess_around(p, d, s, &center.y),
+    match calibrate::output(p, d) {
+        Some(center) => assess_around(p, d, s, &center),
         None => Predictability::all(d.y.len()),
     }
 }
@@ -273,7 +273,7 @@ fn assess_around(p: &ActuatorParams, d: &Data, s: &Settings, center: &[f64]) -> 
     let n = d.y.len();
     let members: Vec<Vec<f64>> = (0..4)
         .into_par_iter()
-        .filter_map(|m| calibrate::simulate(&member(p, m, s), d).map(|t| t.y))
+        .filter_map(|m| calibrate::output(&member(p, m, s), d))
         .collect();
     if members.is_empty() || n == 0 {
         return Predictability::all(n);
@@ -451,14 +451,14 @@ fn moved(p: &ActuatorParams, m: usize, sign: f64, s: &Smoothness) -> ActuatorPar
 /// one unit whose temperature changes) do not agree there sample by sample.
 pub fn assess_smooth(p: &ActuatorParams, d: &Data, s: &Smoothness, sigma: f64) -> Predictability {
     let n = d.y.len();
-    let Some(center) = calibrate::simulate(p, d) else {
+    let Some(center) = calibrate::output(p, d) else {
         return Predictability::all(n);
     };
     let runs: Vec<(Vec<f64>, Vec<f64>)> = (0..s.pairs.clamp(1, 4))
         .into_par_iter()
         .filter_map(|m| {
-            let a = calibrate::simulate(&moved(p, m, 1.0, s), d)?.y;
-            let b = calibrate::simulate(&moved(p, m, -1.0, s), d)?.y;
+            let a = calibrate::output(&moved(p, m, 1.0, s), d)?;
+            let b = calibrate::output(&moved(p, m, -1.0, s), d)?;
             Some((a, b))
         })
         .collect();
@@ -467,7 +467,7 @@ pub fn assess_smooth(p: &ActuatorParams, d: &Data, s: &Smoothness, sigma: f64) -
     }
     let w = ((s.window_s / d.sample_period_s).round() as usize).max(4);
     let windows = n.div_ceil(w);
-    let global_ms = center.y.iter().map(|v| v * v).sum::<f64>() / n as f64;
+    let global_ms = center.iter().map(|v| v * v).sum::<f64>() / n as f64;
     let flags: Vec<(bool, bool, bool)> = (0..windows)
         .map(|j| {
             let lo = j * w;
@@ -475,7 +475,7 @@ pub fn assess_smooth(p: &ActuatorParams, d: &Data, s: &Smoothness, sigma: f64) -
             let (mut odd, mut even) = (0.0, 0.0);
             for (a, b) in &runs {
                 for k in lo..hi {
-                    let c = center.y.get(k).copied().unwrap_or(0.0);
+                    let c = center.get(k).copied().unwrap_or(0.0);
                     let (ya, yb) = (
                         a.get(k).copied().unwrap_or(c),
                         b.get(k).copied().unwrap_or(c),
@@ -487,7 +487,6 @@ pub fn assess_smooth(p: &ActuatorParams, d: &Data, s: &Smoothness, sigma: f64) -
             let rows = ((hi - lo) * runs.len()).max(1) as f64;
             let change = (odd + even) / rows;
             let sig = center
-                .y
                 .get(lo..hi)
                 .unwrap_or(&[])
                 .iter()
