@@ -978,8 +978,10 @@ pub fn calibrate_seeded(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], seed
     fit
 }
 
-/// [`calibrate_seeded`] without the standard errors: the point with its plain cost on
-/// `data`, and how far it moved from `p0` ([`Fit::moved`]).
+/// [`calibrate_seeded`] without the standard errors, for a caller that polishes the point
+/// further: its Levenberg–Marquardt also runs on the records as a global search sees them
+/// ([`thinned`]). Returns the point with its plain cost on `data`, and how far it moved from
+/// `p0` ([`Fit::moved`]).
 pub fn calibrate_point(
     p0: &ActuatorParams,
     knobs: &[Knob],
@@ -991,7 +993,7 @@ pub fn calibrate_point(
         return (Point::from(&f), f.moved);
     }
     let best = global_start(p0, knobs, data, seed);
-    let (z, p, _, _) = lm_point(&best, knobs, &robust(data), 20);
+    let (z, p, _, _) = lm_point(&best, knobs, &thinned(&robust(data)), 20);
     let values: Vec<f64> = knobs.iter().zip(&z).map(|(k, &zi)| k.from_z(zi)).collect();
     let point = Point {
         params: p.params,

@@ -288,7 +288,7 @@ fn settle_seeded(
             f.params
         } else {
             let q = calibrate::refine(&p, knobs, &w);
-            calibrate::polish_point(&q, knobs, &w, 20).params
+            calibrate::polish_point(&q, knobs, &calibrate::thinned(&w), 20).params
         };
     }
     let w = weigh(&p, data, on);
