@@ -1216,4 +1216,29 @@ pub(crate) mod tests {
         let nrmse = (diff / sig).sqrt();
         assert!(nrmse < 1e-3, "NRMSE {nrmse:.2e}");
     }
+    #[test]
+    fn the_output_alone_is_the_traced_output() {
+        // The searches' run (`output`) is the reported one's fitted column, row for row,
+        // also with a hook that moves the state (the restart copy of the predictability
+        // assessment), and it is what the costs see.
+        let mut p = REFERENCE;
+        p.sample_period_s = H;
+        let d = stepped(3, Some(&p));
+        let kick = |k: usize, st: &mut PlantState| {
+            if k % 800 == 0 {
+                st.twist_rad = -st.twist_rad;
+            }
+        };
+        let traced = simulate_with(&p, &d, kick).map(|t| t.y);
+        let alone = output_with(&p, &d, kick);
+        assert!(traced.as_ref().is_some_and(|y| y.len() == d.y.len()));
+        assert_eq!(traced, alone);
+        // The hook did move the state.
+        assert_ne!(traced, output(&p, &d));
+        assert_eq!(simulate(&p, &d).map(|t| t.y), output(&p, &d));
+        assert_eq!(nrmse(&p, &d), 0.0);
+        let mut bad = p;
+        bad.motor.inertia_kg_m2 = -1.0;
+        assert_eq!(output(&bad, &d), None);
+    }
 }
