@@ -1225,7 +1225,7 @@ pub(crate) mod tests {
         p.sample_period_s = H;
         let d = stepped(3, Some(&p));
         let kick = |k: usize, st: &mut PlantState| {
-            if k % 800 == 0 {
+            if k.is_multiple_of(800) {
                 st.twist_rad = -st.twist_rad;
             }
         };
