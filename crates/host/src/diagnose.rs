@@ -254,11 +254,13 @@ fn weigh_smooth(p: &ActuatorParams, data: &[Data], on: bool) -> Vec<Data> {
 /// patchwork at the scale of a percent (chaotic rattle, resonance bursts with two coexisting
 /// responses: `predictability::assess_smooth`), so the search runs on the rows where the
 /// model is smooth in its parameters over a few percent — globally first when `global`
-/// ([`calibrate::calibrate`]), then locally ([`calibrate::refine`], [`calibrate::polish`])
-/// with those rows taken anew under each result, because they depend on the parameters.
-/// From within a percent or so the fit is polished on the rows the fine ensemble calls
-/// predictable ([`predictability::assess`]), which are also the rows it is reported and
-/// judged on. Returns the fit (plain costs on those rows) and the records so weighted.
+/// ([`calibrate::calibrate_point`]), then locally ([`calibrate::refine`],
+/// [`calibrate::polish_point`] on the records as the searches see them,
+/// [`calibrate::thinned`]) with those rows taken anew under each result, because they depend
+/// on the parameters. From within a percent or so the fit is polished on every row the fine
+/// ensemble calls predictable ([`predictability::assess`]), which are also the rows it is
+/// reported and judged on. Returns the fit (plain costs on those rows, with standard errors)
+/// and the records so weighted.
 fn settle(
     start: &ActuatorParams,
     knobs: &[Knob],
