@@ -570,11 +570,7 @@ pub fn levenberg_marquardt_with(
 ) -> Fit {
     let (z, point, cost_start, evaluations) = lm_point(p0, knobs, data, patience);
     let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, k.param))).collect();
-    let moved = z
-        .iter()
-        .zip(&z0)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let moved = largest_change(&z, &z0);
     let values: Vec<f64> = knobs.iter().zip(&z).map(|(k, &zi)| k.from_z(zi)).collect();
     let (std_errors, correlations) = covariance(p0, knobs, data, &z, point.cost);
     Fit {
@@ -971,8 +967,9 @@ pub fn calibrate_seeded(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], seed
     if knobs.is_empty() {
         return levenberg_marquardt(p0, knobs, data);
     }
-    let best = global_start(p0, knobs, data, seed);
-    let fit = levenberg_marquardt(&best, knobs, &robust(data));
+    let rdata = robust(data);
+    let best = global_start(p0, knobs, data, &rdata, seed);
+    let fit = levenberg_marquardt(&best, knobs, &rdata);
     let mut fit = plain(fit, p0, data);
     fit.moved = moved_from(p0, knobs, &fit.values);
     fit
@@ -992,8 +989,9 @@ pub fn calibrate_point(
         let f = levenberg_marquardt(p0, knobs, data);
         return (Point::from(&f), f.moved);
     }
-    let best = global_start(p0, knobs, data, seed);
-    let (z, p, _, _) = lm_point(&best, knobs, &thinned(&robust(data)), 20);
+    let rdata = robust(data);
+    let best = global_start(p0, knobs, data, &rdata, seed);
+    let (z, p, _, _) = lm_point(&best, knobs, &thinned(&rdata), 20);
     let values: Vec<f64> = knobs.iter().zip(&z).map(|(k, &zi)| k.from_z(zi)).collect();
     let point = Point {
         params: p.params,
@@ -1003,9 +1001,14 @@ pub fn calibrate_point(
 }
 
 /// The best point of the global search of [`calibrate_seeded`] (CMA-ES from `p0` and from
-/// the record's frequency response, on the thinned robust records).
-fn global_start(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], seed: u64) -> ActuatorParams {
-    let rdata = robust(data);
+/// the first record's frequency response, on the robust records `rdata` thinned).
+fn global_start(
+    p0: &ActuatorParams,
+    knobs: &[Knob],
+    data: &[Data],
+    rdata: &[Data],
+    seed: u64,
+) -> ActuatorParams {
     let has = |param: Param| knobs.iter().any(|k| k.param == param);
     let mut starts = vec![*p0];
     if has(Param::StiffnessKeq) && has(Param::MotorInertia) {
@@ -1020,7 +1023,7 @@ fn global_start(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], seed: u64) -
         }
     }
     let budget = EVALS_PER_KNOB * knobs.len() / starts.len();
-    let search = thinned(&rdata);
+    let search = thinned(rdata);
     starts
         .iter()
         .map(|q| evolve_with(q, knobs, &search, POPULATION, budget, 0.5, seed))
@@ -1031,10 +1034,16 @@ fn global_start(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], seed: u64) -
 
 /// Largest change of any knob from `p0` to `values`, in internal coordinates.
 fn moved_from(p0: &ActuatorParams, knobs: &[Knob], values: &[f64]) -> f64 {
-    knobs
-        .iter()
-        .zip(values)
-        .map(|(k, &v)| (k.to_z(v) - k.to_z(get(p0, k.param))).abs())
+    let z: Vec<f64> = knobs.iter().zip(values).map(|(k, &v)| k.to_z(v)).collect();
+    let z0: Vec<f64> = knobs.iter().map(|k| k.to_z(get(p0, k.param))).collect();
+    largest_change(&z, &z0)
+}
+
+/// Largest |a − b| over the internal coordinates `a` and `b`.
+fn largest_change(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
         .fold(0.0, f64::max)
 }
 
