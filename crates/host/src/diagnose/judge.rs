@@ -1,0 +1,567 @@
+//! Judging a candidate's refits: the evidence it earns against the best model without a new
+//! effect (ΔBIC, materiality above the noise floor), the reasons it may not be admitted, the
+//! class of explanations the data cannot tell apart, the held-out checks, and the backward
+//! step that removes an effect a later one made redundant.
+
+use super::search::Refit;
+use super::settle::{common_rows, floor_cost};
+use super::{rms_nrmse, Ctx, Options, Rejection, Step};
+use crate::calibrate::{self, Data, Fit, Knob, Param, Point};
+use crate::noise;
+use geared_servo::{ActuatorParams, Effect};
+use rayon::prelude::*;
+
+/// Least share of a refit's gain that must be lost when its effect alone is switched off
+/// again (the ablation test of a candidate).
+const OWN_SHARE: f64 = 0.5;
+
+/// Share of what the best candidate explains (its cost reduction) that another must explain
+/// to be reported as indistinguishable from it.
+const EQUIVALENT_SHARE: f64 = 0.9;
+
+/// The evidence for an effect: the model with it costs `with_c`, without it `without_c`, the
+/// noise floor `floor_c` (on the same rows), the residual has `n_eff` effective samples.
+struct Evidence {
+    /// ΔBIC of the effect (negative: it earns its parameter).
+    delta_bic: f64,
+    /// Whether it explains less than `min_share` of the cost above the floor.
+    immaterial: bool,
+    /// The share of the cost above the floor it explains.
+    share: f64,
+}
+
+impl Evidence {
+    fn new(n_eff: f64, with_c: f64, without_c: f64, floor_c: f64, min_share: f64) -> Self {
+        Evidence {
+            delta_bic: n_eff * (with_c / without_c).ln() + n_eff.ln(),
+            immaterial: without_c - with_c < min_share * (without_c - floor_c),
+            share: (without_c - with_c) / (without_c - floor_c).max(f64::MIN_POSITIVE),
+        }
+    }
+
+    /// Whether the effect earns its parameter by `threshold`.
+    fn earns(&self, threshold: f64) -> bool {
+        !self.delta_bic.is_nan() && self.delta_bic < threshold
+    }
+}
+
+/// How far `v` lies outside `effect`'s plausible range, in units of the range's own scale:
+/// 0 inside, 1 at the edge widened by `slack` (log factor for positive effects, half-widths
+/// for a signed gain error), more beyond.
+fn implausibility(effect: Effect, v: f64, slack: f64) -> f64 {
+    let (lo, hi) = effect.plausible_range();
+    if lo < 0.0 {
+        let half = 0.5 * (hi - lo);
+        let out = (v - hi).max(lo - v).max(0.0);
+        return out / (half * (slack - 1.0).max(1e-9));
+    }
+    if v <= 0.0 {
+        return f64::INFINITY;
+    }
+    let out = (v / hi).ln().max((lo / v).ln()).max(0.0);
+    out / slack.ln().max(1e-9)
+}
+
+/// Two complementary sets of interleaved segments of every record (about 0.5 s each, at
+/// least 8 per record): a fit on one is checked on the other.
+fn folds(data: &[Data]) -> [Vec<Data>; 2] {
+    let mk = |parity: usize| -> Vec<Data> {
+        data.iter()
+            .map(|d| {
+                let n = d.y.len();
+                let seg = ((0.5 / d.sample_period_s).round() as usize)
+                    .min(n / 8)
+                    .max(1);
+                let w: Vec<f64> = d
+                    .weight
+                    .iter()
+                    .enumerate()
+                    .map(|(k, w)| if (k / seg) % 2 == parity { *w } else { 0.0 })
+                    .collect();
+                d.with_weights(&w)
+            })
+            .collect()
+    };
+    [mk(0), mk(1)]
+}
+
+/// Held-out check of adding the effect of `with` (its last knob) to the model of
+/// `without`: the effect's value is refitted on one fold and scored on the other, both ways;
+/// the model without it is scored on the same folds. Returns the held-out NRMSE (root mean
+/// square over the folds) without and with the effect.
+///
+/// Only the effect is refitted: a brief refit of every parameter on half the segments (a
+/// fold of a stepped sine holds half its frequencies) can jump along directions the fold
+/// does not determine, and it made right effects fail this check on the foreign suite
+/// (motor_viscous/0, tach_lag/1) while the model without them failed it as badly.
+fn held_out(without: &Fit, with: &Fit, data: &[Data]) -> (f64, f64) {
+    let [a, b] = folds(data);
+    let effect: Vec<Knob> = with.knobs.last().cloned().into_iter().collect();
+    let mut x = 0.0;
+    let mut y = 0.0;
+    for (train, test) in [(&a, &b), (&b, &a)] {
+        x += calibrate::cost(&without.params, test);
+        // Plain least squares on the fold's predictable rows, kept only where it helps on
+        // the fold.
+        let g = calibrate::levenberg_marquardt_with(&with.params, &effect, train, 5);
+        let p = if calibrate::cost(&g.params, train) <= calibrate::cost(&with.params, train) {
+            g.params
+        } else {
+            with.params
+        };
+        y += calibrate::cost(&p, test);
+    }
+    (rms_nrmse(x / 2.0), rms_nrmse(y / 2.0))
+}
+
+/// A candidate's full refit, judged.
+pub(super) struct Judged {
+    /// The refit, polished on its own predictable rows (plain cost there).
+    pub(super) fit: Fit,
+    /// Its cost over the reference's (the current model's, or the better point of the model
+    /// without a new effect that a candidate's ablation reached), on the rows both keep.
+    ratio: f64,
+    /// The current model's cost on those rows.
+    cur_c: f64,
+    /// The candidate's cost there.
+    fit_c: f64,
+    /// The noise floor's cost there.
+    floor_c: f64,
+    /// The candidate's refit with the effect switched back to the current model's value
+    /// (a point of the model without it), cost there.
+    ablated_c: f64,
+    /// Its value lies within the background range (rejected as such).
+    within_background: bool,
+    /// Those rows.
+    common: Vec<Data>,
+    /// The records weighted by its own predictability.
+    pub(super) own: Vec<Data>,
+    /// Effective sample count of its residual.
+    n_eff: f64,
+    /// The candidate.
+    pub(super) effect: Effect,
+    /// Its refitted value, in its unit.
+    pub(super) value: f64,
+    /// ΔBIC against the reference (negative: better).
+    pub(super) delta_bic: f64,
+    /// Ok, or why it may not be added.
+    pub(super) admissible: Result<(), String>,
+    /// How far the value lies outside the plausible range ([`implausibility`]).
+    implausibility: f64,
+    /// The change it needs of the parameters already calibrated ([`distortion`]).
+    distortion: f64,
+}
+
+/// Change of the already-calibrated parameters from `cur` to `f` (squared, internal
+/// coordinates): the file's values and the current fit are the prior, and an explanation
+/// that needs a 30 % change of every inertia is the less likely one.
+fn distortion(cur: &Fit, f: &Fit) -> f64 {
+    cur.knobs
+        .iter()
+        .zip(cur.values.iter())
+        .filter_map(|(kn, a)| {
+            let b = f
+                .knobs
+                .iter()
+                .position(|x| x.param == kn.param)
+                .and_then(|i| f.values.get(i))?;
+            Some((kn, a, b))
+        })
+        .map(|(kn, a, b)| {
+            let d = if kn.log {
+                kn.to_z(*b) - kn.to_z(*a)
+            } else {
+                (b - a) / a.abs().max(f64::MIN_POSITIVE)
+            };
+            d * d
+        })
+        .sum()
+}
+
+/// Lag-1 autocorrelation of the stacked residuals of `p` (first record).
+fn effective_samples(p: &ActuatorParams, data: &[Data]) -> f64 {
+    let n: f64 = data.iter().map(Data::weight_sum).sum();
+    let Some(d) = data.first() else { return 1.0 };
+    let Some(t) = calibrate::output(p, d) else {
+        return 1.0;
+    };
+    let e: Vec<f64> =
+        d.y.iter()
+            .zip(&t)
+            .zip(&d.weight)
+            .map(|((a, b), w)| w.sqrt() * (a - b))
+            .collect();
+    let m = e.iter().sum::<f64>() / e.len().max(1) as f64;
+    let s0: f64 = e.iter().map(|x| (x - m).powi(2)).sum();
+    let s1: f64 = e
+        .iter()
+        .zip(e.iter().skip(1))
+        .map(|(a, b)| (a - m) * (b - m))
+        .sum();
+    let rho = if s0 > 0.0 {
+        (s1 / s0).clamp(0.0, 0.999)
+    } else {
+        0.0
+    };
+    (n * (1.0 - rho) / (1.0 + rho)).max(2.0)
+}
+
+/// Judges each candidate's refits (`local`, and the global ones of `alts` by candidate)
+/// against the current model `cur` (on its predictable rows `wdata`); `cur_bounds`: the
+/// current fit's parameters at a bound. Returns the candidates best first, each with its
+/// verdict.
+///
+/// A candidate is a model of its own, with its own predictable rows: polished there, and
+/// compared with the current model on the rows both keep (a model must not be judged on
+/// rows that another one chose, where it may be the chaotic one). Of its refits the one
+/// that does best so is judged (a global refit can do better on the rows it keeps by
+/// calling rough the very rows where its effect shows).
+pub(super) fn judge(
+    cx: &Ctx,
+    cur: &Fit,
+    wdata: &[Data],
+    local: Vec<Refit>,
+    alts: Vec<Vec<Point>>,
+    cur_bounds: &[String],
+) -> Vec<Judged> {
+    let opts = cx.opts;
+    // Each candidate's better refit, the candidates in parallel:
+    // (cost over the current model's, fit, own rows, common rows, fit cost, current cost)
+    type Alt = (f64, Fit, Vec<Data>, Vec<Data>, f64, f64);
+    let chosen_alts: Vec<Option<Alt>> = local
+        .par_iter()
+        .zip(alts)
+        .map(|(r, more)| {
+            let mut best: Option<Alt> = None;
+            for f in std::iter::once(r.fit).chain(more) {
+                let own = cx.weigh(&f.params);
+                let mut f = calibrate::polish(&f.params, &r.knobs, &own, 8);
+                // The polish can move it to where other rows are predictable: its rows
+                // and cost are taken anew where it ended.
+                let own = cx.weigh(&f.params);
+                f.cost = calibrate::cost(&f.params, &own);
+                let common = common_rows(cx.data, wdata, &own);
+                let fit_c = calibrate::cost(&f.params, &common);
+                let cur_c = calibrate::cost(&cur.params, &common);
+                let r = fit_c / cur_c;
+                if best.as_ref().is_none_or(|b| r < b.0) {
+                    best = Some((r, f, own, common, fit_c, cur_c));
+                }
+            }
+            best
+        })
+        .collect();
+    let mut judged: Vec<Judged> = Vec::new();
+    for (r, best) in local.into_iter().zip(chosen_alts) {
+        let e = r.effect;
+        let Some(k) = r.knobs.last() else {
+            continue;
+        };
+        let Some((_, fit, own, common, fit_c, cur_c)) = best else {
+            continue;
+        };
+        let floor_c = floor_cost(&common, &cx.sigma);
+        let value = fit.values.last().copied().unwrap_or(f64::NAN);
+        // The samples' effective number is that of the noise, so it is taken from the
+        // candidate's residual: the current one is correlated by the very structure the
+        // effect would explain (a missing offset makes it a constant).
+        let n_eff = effective_samples(&fit.params, &common);
+        let imp = implausibility(e, value, opts.plausibility_slack);
+        // A refit that needs another parameter at a bound of the calibration (30 times
+        // the file's value or a thirtieth) is the model bending to stand in for something
+        // else, not an explanation.
+        // The background damping at its upper end is no such sign: the data want more
+        // damping, which the mesh_damping candidate offers.
+        let background_names: Vec<&str> = cur
+            .knobs
+            .iter()
+            .filter(|k| k.floor_ok)
+            .map(|k| k.name())
+            .collect();
+        let new_bounds: Vec<String> = calibrate::at_bounds(&fit)
+            .into_iter()
+            .filter(|n| !cur_bounds.contains(n) && !background_names.contains(&n.as_str()))
+            .collect();
+        // A background quantity released to its whole range that stays inside the
+        // background's range is the background, not an effect.
+        let within_background = cur
+            .knobs
+            .iter()
+            .find(|x| x.floor_ok && x.param == k.param)
+            .map(|x| value <= x.hi * 1.01);
+        // Ablation: the effect switched back to what the current model has (off, or the
+        // background), everything else as refitted. A refit whose gain survives that came
+        // from moving the other parameters (a better point of the base set, or a limit
+        // above every command), not from the effect.
+        let ablated_c = {
+            let mut q = fit.params;
+            calibrate::set(&mut q, k.param, calibrate::get(&cur.params, k.param));
+            calibrate::cost(&q, &common)
+        };
+        let own_share = (ablated_c - fit_c) / (cur_c - fit_c).max(f64::MIN_POSITIVE);
+        // Reasons that do not depend on what the model without the effect can reach.
+        let fixed = if within_background == Some(true) {
+            Err(format!(
+                "{value:.4e} {} is within the background every gear train has (calibrate::BACKGROUND_DAMPING)",
+                e.unit()
+            ))
+        } else if own_share < OWN_SHARE {
+            Err(format!(
+                "switched off again it keeps {:.0} % of its gain: the other parameters made it",
+                100.0 * (1.0 - own_share.max(0.0))
+            ))
+        } else if imp > 1.0 {
+            let (lo, hi) = e.plausible_range();
+            Err(format!(
+                "value {value:.4e} {} is implausible (plausible {lo:e} to {hi:e})",
+                e.unit()
+            ))
+        } else if !new_bounds.is_empty() {
+            Err(format!(
+                "its refit needs {} at a bound (the file value x30 or /30): it stands in for something else",
+                new_bounds.join(", ")
+            ))
+        } else {
+            Ok(())
+        };
+        judged.push(Judged {
+            n_eff,
+            ratio: fit_c / cur_c,
+            cur_c,
+            fit_c,
+            floor_c,
+            ablated_c,
+            within_background: within_background == Some(true),
+            common,
+            own,
+            distortion: distortion(cur, &fit),
+            fit,
+            effect: e,
+            value,
+            delta_bic: f64::NAN,
+            admissible: fixed,
+            implausibility: imp,
+        });
+    }
+    // What the model without any new effect can reach: every candidate's ablation is a
+    // point of that model (its refit with the effect switched back), often a better one
+    // than the current fit (the refits move every parameter). An effect must earn its
+    // parameter and explain a material share against the best of them, not against a
+    // current fit that a mere refit improves (a tiny dead band riding on a better point
+    // of the base set).
+    let null = judged
+        .iter()
+        .map(|j| j.ablated_c / j.cur_c)
+        .filter(|r| r.is_finite())
+        .fold(1.0_f64, f64::min);
+    for j in &mut judged {
+        let ref_c = j.cur_c * null;
+        j.ratio = j.fit_c / ref_c;
+        let ev = Evidence::new(j.n_eff, j.fit_c, ref_c, j.floor_c, opts.min_excess_share);
+        j.delta_bic = ev.delta_bic;
+        let statistical = if !ev.earns(opts.bic_threshold) {
+            Err(format!(
+                "did not earn its parameter (ΔBIC {:.1}{})",
+                j.delta_bic,
+                if null.sqrt() < 0.9995 {
+                    format!(
+                        ", against the model without it refitted to NRMSE x{:.3}",
+                        null.sqrt()
+                    )
+                } else {
+                    String::new()
+                }
+            ))
+        } else if ev.immaterial {
+            Err(format!(
+                "explains {:.0} % of the error above the noise floor (needs {:.0} %)",
+                100.0 * ev.share,
+                100.0 * opts.min_excess_share
+            ))
+        } else {
+            Ok(())
+        };
+        // The within-background reason comes first; the statistical ones next; then the
+        // others.
+        if !j.within_background {
+            if let Err(r) = statistical {
+                j.admissible = Err(r);
+            }
+        }
+    }
+    judged.sort_by(|a, b| a.ratio.total_cmp(&b.ratio));
+    judged
+}
+
+/// The class of admissible explanations the data cannot tell from the best one (indices
+/// into `judged`), likelier first.
+pub(super) fn class(judged: &[Judged], opts: &Options) -> Vec<usize> {
+    let (best_adm, n_eff) = judged
+        .iter()
+        .filter(|j| j.admissible.is_ok())
+        .map(|j| (j.ratio, j.n_eff))
+        .fold((f64::INFINITY, 2.0), |b, x| if x.0 < b.0 { x } else { b });
+    // Indistinguishable: within the BIC threshold of the best, or explaining at least
+    // EQUIVALENT_SHARE of what the best explains above the current fit (with 10⁴ samples
+    // a difference can be significant and still immaterial: a spring and gravity at
+    // small angles, a lag and a delay at low frequencies).
+    let mut class: Vec<usize> = (0..judged.len())
+        .filter(|&i| {
+            judged.get(i).is_some_and(|j| {
+                j.admissible.is_ok()
+                    && (n_eff * (j.ratio / best_adm).ln() < -opts.bic_threshold
+                        || 1.0 - j.ratio >= EQUIVALENT_SHARE * (1.0 - best_adm))
+            })
+        })
+        .collect();
+    // Likelier first: a value inside its plausible range, then the statistically best
+    // (within the BIC threshold of the best), then the least change of the parameters
+    // already calibrated.
+    let tier = |j: &Judged| n_eff * (j.ratio / best_adm).ln() >= -opts.bic_threshold;
+    class.sort_by(|&a, &b| {
+        let (ja, jb) = (&judged[a], &judged[b]);
+        (ja.implausibility > 0.0)
+            .cmp(&(jb.implausibility > 0.0))
+            .then(tier(ja).cmp(&tier(jb)))
+            .then(ja.distortion.total_cmp(&jb.distortion))
+    });
+    class
+}
+
+/// The first of `class` that also holds on held-out data — the cross-validated segments of
+/// its rows and, when given, the validation record — with its held-out NRMSEs (without,
+/// with); those of the class tried before it are pushed to `rejected`.
+pub(super) fn accept(
+    cx: &Ctx,
+    cur: &Fit,
+    judged: &[Judged],
+    class: &[usize],
+    rejected: &mut Vec<Rejection>,
+) -> Option<(usize, (f64, f64))> {
+    let vw = cx.val_weighted(&cur.params);
+    for &i in class {
+        let j = judged.get(i)?;
+        let ho = held_out(cur, &j.fit, &j.common);
+        let ho_ok = ho.1 < ho.0;
+        // The validation record on the rows both models keep.
+        let vc = match (&vw, cx.val_weighted(&j.fit.params)) {
+            (Some(a), Some(b)) => Some(common_rows(
+                std::slice::from_ref(a),
+                std::slice::from_ref(a),
+                std::slice::from_ref(&b),
+            )),
+            _ => None,
+        };
+        let vc = vc.as_ref().and_then(|v| v.first());
+        let val_floor = match (vc, cx.val_sigma) {
+            (Some(v), Some(s)) => noise::floor_nrmse(s, &v.weight, v.norm),
+            _ => 0.0,
+        };
+        let val_ok = match vc {
+            Some(v) => {
+                let a = calibrate::nrmse(&cur.params, v);
+                let b = calibrate::nrmse(&j.fit.params, v);
+                // Not materially worse: by no more than a tenth of the validation error
+                // above its floor plus a tenth of the noise energy (one of two missing
+                // effects can leave a record that needs both no better).
+                b * b
+                    <= a * a
+                        + 0.1 * (a * a - val_floor * val_floor).max(0.0)
+                        + 0.1 * val_floor * val_floor
+            }
+            _ => true,
+        };
+        if ho_ok && val_ok {
+            return Some((i, ho));
+        }
+        rejected.push(Rejection {
+            effect: j.effect,
+            value: j.value,
+            nrmse_after: rms_nrmse(j.fit.cost),
+            reason: if ho_ok {
+                "worse on the validation record".to_string()
+            } else {
+                format!(
+                    "does not hold on held-out segments (NRMSE {:.4} without, {:.4} with)",
+                    ho.0, ho.1
+                )
+            },
+        });
+    }
+    None
+}
+
+/// An effect added earlier that the one just added made redundant: the model without it
+/// and why it goes.
+pub(super) struct Removal {
+    /// Its index in the steps.
+    pub(super) step: usize,
+    /// The model without it (plain cost on its own rows).
+    pub(super) without: Fit,
+    /// The records weighted by that model's predictability.
+    pub(super) own: Vec<Data>,
+    /// Why it goes.
+    pub(super) why: String,
+}
+
+/// Backward step after `added` (the last of `steps`) was added to give `cur` (on its rows
+/// `wdata`): an effect added earlier may have stood in for it (a pick-up for a tachometer
+/// lag while the lag was missing). Each earlier one is set back to the file's value and the
+/// rest refitted; the first that then no longer earns its parameter, or no longer explains
+/// a material share of what lies above the floor, is the removal. Mesh damping is kept:
+/// without it the background would go too.
+pub(super) fn backward_step(
+    cx: &Ctx,
+    cur: &Fit,
+    wdata: &[Data],
+    steps: &[Step],
+    added: Effect,
+) -> Option<Removal> {
+    let opts = cx.opts;
+    let last = steps.len().saturating_sub(1);
+    for (si, st) in steps.iter().enumerate().take(last) {
+        if st.effect == Effect::MeshDamping {
+            continue;
+        }
+        let param = Param::Effect(st.effect);
+        let ks: Vec<Knob> = cur
+            .knobs
+            .iter()
+            .filter(|k| k.param != param)
+            .cloned()
+            .collect();
+        let mut q: ActuatorParams = cur.params;
+        calibrate::set(&mut q, param, calibrate::get(&cx.nominal, param));
+        let without = calibrate::polish(&q, &ks, wdata, 8);
+        let own = cx.weigh(&without.params);
+        let common = common_rows(cx.data, wdata, &own);
+        let with_c = calibrate::cost(&cur.params, &common);
+        let without_c = calibrate::cost(&without.params, &common);
+        let floor_c = floor_cost(&common, &cx.sigma);
+        let n_eff = effective_samples(&cur.params, &common);
+        let ev = Evidence::new(n_eff, with_c, without_c, floor_c, opts.min_excess_share);
+        if !ev.earns(opts.bic_threshold) || ev.immaterial {
+            let why = if ev.immaterial {
+                format!(
+                    "removed once {added} was added: it explained {:.0} % of the error above the noise floor (needs {:.0} %)",
+                    100.0 * ev.share,
+                    100.0 * opts.min_excess_share
+                )
+            } else {
+                format!(
+                    "removed once {added} was added: it no longer earned its parameter (ΔBIC {:.1})",
+                    ev.delta_bic
+                )
+            };
+            let mut without = without;
+            without.cost = calibrate::cost(&without.params, &own);
+            return Some(Removal {
+                step: si,
+                without,
+                own,
+                why,
+            });
+        }
+    }
+    None
+}

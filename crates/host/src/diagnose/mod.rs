@@ -1,0 +1,628 @@
+//! `diagnose`: calibrate the default parameter set, analyse the residual, trace it to a
+//! missing effect, add the effect, refit, repeat; report the error before and after.
+//!
+//! It is built for records the emulator did not make (a real rig, or an independent
+//! simulator), which differ from the model in three ways that decisions must respect:
+//!
+//! - **Unpredictable spans.** In gear-rattle regimes no model follows a rig sample by sample
+//!   ([`crate::predictability`]). Those rows are weighted out of every fit and decision, and
+//!   their share is reported.
+//! - **Noise.** The noise level is estimated from the record itself ([`crate::noise`]); the
+//!   NRMSE it alone causes is the floor. An effect must explain a material share of what lies
+//!   *above* the floor, and the residual is "explained" when it is within
+//!   [`Options::material_ratio`] of the floor — with 10⁴ samples every tiny mismatch is
+//!   statistically significant, so significance (ΔBIC) is necessary but not sufficient.
+//! - **Wrong basins and gross errors.** The default set is calibrated globally
+//!   ([`calibrate::calibrate`]); when the calibrated residual is far above the floor, every
+//!   candidate is refitted fully instead of being screened by a linear projection around a
+//!   fit that a missing effect has bent.
+//!
+//! Tracing: each candidate effect the model does not have yet is scored by a linearised
+//! projection of the residual; the best few (every one when the fit is poor) are refitted
+//! with the default set by Levenberg–Marquardt. A refit is *admissible* when it earns its
+//! parameter by the Bayesian information criterion (effective sample count n (1 − ρ₁)/(1 + ρ₁),
+//! ρ₁ the residual's lag-1 autocorrelation), explains at least [`Options::min_excess_share`]
+//! of the cost above the floor (both measured against the best point of the model without a
+//! new effect that any candidate's refit reached when its effect is switched off again), and
+//! its value is plausible (within the effect's plausible range
+//! of the registry, widened by [`Options::plausibility_slack`]). Admissible refits whose costs
+//! the data cannot tell apart (within the BIC threshold) form one class, ordered by physical
+//! likelihood: a value inside the plausible range first, then the least change of the
+//! parameters already calibrated. The first of the class that also holds on held-out data —
+//! cross-validated segments of the record and, when given, the validation record — is added,
+//! reported with the others of its class and the measurement that would separate them.
+//! `unexplained` is true when a material residual remains above the floor on the predictable
+//! rows and no candidate explains it.
+
+mod judge;
+mod kin;
+mod search;
+mod settle;
+
+pub use kin::{kin, separating_measurement, KIN};
+
+use crate::calibrate::{self, Data, Fit, Knob, Param};
+use crate::error::HostError;
+use crate::noise;
+use crate::residual::{self, Analysis};
+use geared_servo::{ActuatorParams, Effect};
+use settle::{
+    better_on_common, common_rows, floor_cost, settle, settle_seeded, weigh, weigh_one,
+    weigh_smooth,
+};
+
+/// Options of the search.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Candidate effects (default: all of [`Effect::ALL`]).
+    pub candidates: Vec<Effect>,
+    /// Most effects added.
+    pub max_steps: usize,
+    /// Candidates refitted fully per step when the fit is good (the best by their projected
+    /// score); when it is poor (NRMSE above [`Options::poor_ratio`] times the floor) all are.
+    pub refit_top: usize,
+    /// ΔBIC an effect must beat (negative: strong evidence at −10, Kass & Raftery 1995); also
+    /// the width of a class of indistinguishable explanations.
+    pub bic_threshold: f64,
+    /// Least share of the cost above the noise floor an effect must explain (materiality).
+    pub min_excess_share: f64,
+    /// The residual is material while NRMSE exceeds this multiple of the noise floor.
+    pub material_ratio: f64,
+    /// The fit is poor (all candidates are refitted) above this multiple of the floor.
+    pub poor_ratio: f64,
+    /// Factor by which a value may leave the effect's plausible range and still be admissible
+    /// (log scale for positive effects; the range's half-width for a gain error).
+    pub plausibility_slack: f64,
+    /// Weight out unpredictable spans ([`crate::predictability`]).
+    pub predictability: bool,
+    /// Parameters to calibrate instead of the default set (key paths of
+    /// [`calibrate::FITTABLE`]); `None`: the default set.
+    pub fit: Option<Vec<String>>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            candidates: Effect::ALL.to_vec(),
+            max_steps: 3,
+            refit_top: 3,
+            bic_threshold: -10.0,
+            min_excess_share: 0.3,
+            material_ratio: 1.2,
+            poor_ratio: 2.0,
+            plausibility_slack: 2.0,
+            predictability: true,
+            fit: None,
+        }
+    }
+}
+
+/// One effect added.
+#[derive(Clone, Debug)]
+pub struct Step {
+    /// The effect.
+    pub effect: Effect,
+    /// Calibrated value, in the effect's unit.
+    pub value: f64,
+    /// Its standard error.
+    pub std_error: f64,
+    /// NRMSE over the predictable rows (root mean square over records) before adding it: the
+    /// rows both the model before and the model after keep.
+    pub nrmse_before: f64,
+    /// After.
+    pub nrmse_after: f64,
+    /// ΔBIC of adding it (negative = better).
+    pub delta_bic: f64,
+    /// Scores of every candidate at this step: (effect, predicted NRMSE, start value).
+    pub scores: Vec<(Effect, f64, f64)>,
+    /// A material residual remains at the end: this effect earned its parameter but does
+    /// not account for everything, so it is not claimed with confidence.
+    pub partial: bool,
+    /// Other candidates that explained this record as well (within the BIC threshold), with
+    /// their values: the data cannot tell them apart. This one was put first as the
+    /// physically likelier (value inside its plausible range, least change of the parameters
+    /// already calibrated).
+    pub indistinguishable_from: Vec<(Effect, f64)>,
+    /// What measurement would separate this effect from the first of
+    /// `indistinguishable_from` (empty when there is none).
+    pub separate_by: String,
+    /// Held-out check: (NRMSE on held-out segments without the effect, with it).
+    pub held_out: (f64, f64),
+}
+
+/// A candidate refitted and judged but not added.
+#[derive(Clone, Debug)]
+pub struct Rejection {
+    /// The effect.
+    pub effect: Effect,
+    /// Its refitted value.
+    pub value: f64,
+    /// NRMSE (predictable rows) after its refit.
+    pub nrmse_after: f64,
+    /// Why it was not added.
+    pub reason: String,
+}
+
+/// Everything `diagnose` found.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// The file's parameters (stiffness in measured form).
+    pub nominal: ActuatorParams,
+    /// Analysis of the nominal model on the first record (every row).
+    pub nominal_analysis: Analysis,
+    /// Calibration of the default set, no effect added.
+    pub base: Fit,
+    /// Analysis after that calibration (predictable rows).
+    pub base_analysis: Analysis,
+    /// Effects added, in order.
+    pub steps: Vec<Step>,
+    /// Final calibration.
+    pub final_fit: Fit,
+    /// Final analysis on the first record (predictable rows).
+    pub final_analysis: Analysis,
+    /// NRMSE of the final model on every row of the first record.
+    pub final_nrmse_all_rows: f64,
+    /// Validation NRMSE (predictable rows) of the nominal model and of the final one.
+    pub validation: Option<(f64, f64)>,
+    /// The NRMSE the noise alone gives on the validation record's predictable rows.
+    pub validation_floor: Option<f64>,
+    /// When the validation record was added to the fit ([`diagnose`]): the NRMSE and floor
+    /// on it of the model calibrated without it, which left a material residual there.
+    /// `validation` is then no longer held out.
+    pub validation_in_fit: Option<(f64, f64)>,
+    /// A material residual remains above the noise floor and no candidate explains it.
+    pub unexplained: bool,
+    /// Candidate scores of the last search: (effect, predicted NRMSE, start value).
+    pub last_scores: Vec<(Effect, f64, f64)>,
+    /// The candidates of the last search that were refitted and not added, best first.
+    pub rejected: Vec<Rejection>,
+    /// Estimated noise standard deviation of each record, in its output's unit.
+    pub noise_sigma: Vec<f64>,
+    /// NRMSE the noise alone gives (root mean square over records, predictable rows): the
+    /// floor.
+    pub floor_nrmse: f64,
+    /// Share of each record's rows weighted out as unpredictable, at the final fit.
+    pub unpredictable_share: Vec<f64>,
+    /// The row weights of each record at the final fit (1 predictable, 0 not).
+    pub weights: Vec<Vec<f64>>,
+    /// RMS of the measured and of the modelled output over the unpredictable rows of the
+    /// first record (compared by statistics instead of sample by sample), when there are any.
+    pub unpredictable_rms: Option<(f64, f64)>,
+}
+
+fn rms_nrmse(cost: f64) -> f64 {
+    cost.max(0.0).sqrt()
+}
+
+fn analyse(p: &ActuatorParams, d: &Data) -> Result<(Analysis, calibrate::Trace), HostError> {
+    let t = calibrate::simulate(p, d)
+        .ok_or_else(|| HostError::other("the calibrated parameters are invalid"))?;
+    Ok((
+        residual::analyse_weighted(&d.y, &t, &d.volts, d.sample_period_s, &d.weight),
+        t,
+    ))
+}
+
+/// The parameters named in `names`, each one [`diagnose`] can calibrate
+/// ([`calibrate::FITTABLE`]) and given a non-zero starting value by `params`.
+pub fn fittable(params: &ActuatorParams, names: &[String]) -> Result<Vec<Param>, HostError> {
+    let nominal = calibrate::with_measured_stiffness(params)?;
+    names
+        .iter()
+        .map(|n| {
+            let Some(param) = calibrate::FITTABLE.into_iter().find(|p| p.name() == n) else {
+                let known: Vec<&str> = calibrate::FITTABLE.iter().map(|p| p.name()).collect();
+                return Err(HostError::input(format!(
+                    "`{n}` cannot be calibrated (known: {})",
+                    known.join(", ")
+                )));
+            };
+            let v = calibrate::get(&nominal, param);
+            if v.is_nan() || v <= 0.0 {
+                return Err(HostError::input(format!(
+                    "`{n}` is 0 in the parameter file; give it a starting value there"
+                )));
+            }
+            Ok(param)
+        })
+        .collect()
+}
+
+/// Runs the whole diagnosis on `data` (one or more records) from the file's parameters,
+/// checking what it finds on `validation` when given.
+///
+/// When the calibrated model leaves a material residual on the validation record (above
+/// [`Options::material_ratio`] times that record's own floor, on its predictable rows), the
+/// validation record shows what the estimation records could not (a stepped sine, whose slow
+/// bursts rattle, hardly shows a tachometer gain error or gravity; a square wave does): the
+/// diagnosis then goes on from the model found so far on all records together, and the
+/// outcome says so
+/// ([`Outcome::validation_in_fit`]); the held-out checks are then the cross-validated
+/// segments alone.
+pub fn diagnose(
+    file_params: &ActuatorParams,
+    data: &[Data],
+    validation: Option<&Data>,
+    opts: &Options,
+) -> Result<Outcome, HostError> {
+    let out = diagnose_records(file_params, data, validation, opts, None)?;
+    let (Some(v), Some((_, after)), Some(v_floor)) =
+        (validation, out.validation, out.validation_floor)
+    else {
+        return Ok(out);
+    };
+    if after <= opts.material_ratio * v_floor {
+        return Ok(out);
+    }
+    let mut all = data.to_vec();
+    all.push(v.clone());
+    let mut both = diagnose_records(file_params, &all, None, opts, Some(&out))?;
+    let vn = weigh_one(&both.nominal, v, opts.predictability);
+    let vc = weigh_one(&both.final_fit.params, v, opts.predictability);
+    both.validation = Some((
+        calibrate::nrmse(&both.nominal, &vn),
+        calibrate::nrmse(&both.final_fit.params, &vc),
+    ));
+    both.validation_floor = Some(noise::floor_nrmse(noise::sigma(&v.y), &vc.weight, vc.norm));
+    both.validation_in_fit = Some((after, v_floor));
+    Ok(both)
+}
+
+/// What every phase of one pass shares: the records, their noise and the options.
+struct Ctx<'a> {
+    /// The file's parameters (stiffness in measured form, the records' sample period).
+    nominal: ActuatorParams,
+    /// The estimation records.
+    data: &'a [Data],
+    /// Noise standard deviation of each record, in its output's unit.
+    sigma: Vec<f64>,
+    /// The validation record, when given.
+    validation: Option<&'a Data>,
+    /// Its noise standard deviation.
+    val_sigma: Option<f64>,
+    /// Largest |voltage| of the records, V.
+    max_v: f64,
+    opts: &'a Options,
+}
+
+impl Ctx<'_> {
+    /// The records weighted by their predictability under `p`.
+    fn weigh(&self, p: &ActuatorParams) -> Vec<Data> {
+        weigh(p, self.data, self.opts.predictability)
+    }
+
+    /// The records weighted by their smoothness under `p`.
+    fn weigh_smooth(&self, p: &ActuatorParams) -> Vec<Data> {
+        weigh_smooth(p, self.data, self.opts.predictability)
+    }
+
+    /// [`settle`] on the records.
+    fn settle(&self, start: &ActuatorParams, knobs: &[Knob], global: bool) -> (Fit, Vec<Data>) {
+        settle(start, knobs, self.data, self.opts.predictability, global)
+    }
+
+    /// The floor cost of `data` (weighted estimation records).
+    fn floor(&self, data: &[Data]) -> f64 {
+        floor_cost(data, &self.sigma)
+    }
+
+    /// A cost `c` on `data` is material: above [`Options::material_ratio`] times the floor.
+    fn material(&self, c: f64, data: &[Data]) -> bool {
+        c > self.opts.material_ratio.powi(2) * self.floor(data)
+    }
+
+    /// A fit of cost `c` on its own rows `data` is poor: above [`Options::poor_ratio`] times
+    /// their floor.
+    fn poor(&self, c: f64, data: &[Data]) -> bool {
+        c > self.opts.poor_ratio.powi(2) * self.floor(data)
+    }
+
+    /// The validation record weighted by its predictability under `p`.
+    fn val_weighted(&self, p: &ActuatorParams) -> Option<Data> {
+        self.validation
+            .map(|v| weigh_one(p, v, self.opts.predictability))
+    }
+}
+
+/// `cur` replaced by `fit`, keeping what `cur` says of the whole calibration (its start
+/// cost and how far the global search moved).
+fn adopt(cur: &mut Fit, fit: Fit) {
+    let (cost_start, moved) = (cur.cost_start, cur.moved);
+    *cur = fit;
+    cur.cost_start = cost_start;
+    cur.moved = moved;
+}
+
+/// [`diagnose`] without the second pass.
+fn diagnose_records(
+    file_params: &ActuatorParams,
+    data: &[Data],
+    validation: Option<&Data>,
+    opts: &Options,
+    resume: Option<&Outcome>,
+) -> Result<Outcome, HostError> {
+    let first = data
+        .first()
+        .ok_or_else(|| HostError::input("no record to diagnose"))?;
+    let mut nominal = calibrate::with_measured_stiffness(file_params)?;
+    nominal.sample_period_s = first.sample_period_s;
+    let max_v = data.iter().map(Data::max_abs_v).fold(0.0, f64::max);
+    let nominal_analysis = {
+        let t = calibrate::simulate(&nominal, first)
+            .ok_or_else(|| HostError::other("the file's parameters are invalid"))?;
+        residual::analyse(&first.y, &t, &first.volts, first.sample_period_s)
+    };
+    let cx = Ctx {
+        nominal,
+        data,
+        sigma: data.iter().map(|d| noise::sigma(&d.y)).collect(),
+        validation,
+        val_sigma: validation.map(|v| noise::sigma(&v.y)),
+        max_v,
+        opts,
+    };
+
+    let mut knobs = match &opts.fit {
+        None => calibrate::default_knobs(&nominal, max_v),
+        Some(names) => {
+            let mut ks = Vec::new();
+            for param in fittable(file_params, names)? {
+                ks.push(calibrate::knob(&nominal, param, max_v));
+            }
+            ks
+        }
+    };
+    // The default set carries a background mesh damping when the file declares none
+    // (calibrate::BACKGROUND_DAMPING: a model without any damping cannot be calibrated
+    // against a rig that rattles).
+    let mut start = nominal;
+    if opts.fit.is_none() {
+        if let Some(q) = calibrate::with_background_damping(&nominal, max_v) {
+            knobs.push(calibrate::background_damping_knob(&nominal, max_v));
+            start = q;
+        }
+    }
+    // Two independent global settles, the better on the rows both keep: one search lands
+    // a few percent off now and then (the patchwork is fine-grained), two rarely both do.
+    // When resuming (the second pass of `diagnose`), the model found so far is settled on
+    // the records from where it stands and the search goes on from there.
+    let (mut cur, mut wdata, mut base, steps_so_far) = match resume {
+        None => {
+            let (a, b) = rayon::join(
+                || settle_seeded(&start, &knobs, data, opts.predictability, true, 0),
+                || settle_seeded(&start, &knobs, data, opts.predictability, true, 1),
+            );
+            let (mut base, wdata, _) = better_on_common(a, b, data);
+            base.cost_start = calibrate::cost(&nominal, &wdata);
+            (base.clone(), wdata, base, Vec::new())
+        }
+        Some(r) => {
+            let (mut fit, wdata) = cx.settle(&r.final_fit.params, &r.final_fit.knobs, false);
+            fit.cost_start = calibrate::cost(&nominal, &wdata);
+            let mut base = r.base.clone();
+            base.cost = calibrate::cost(&base.params, &wdata);
+            base.cost_start = fit.cost_start;
+            (fit, wdata, base, r.steps.clone())
+        }
+    };
+    base.cost_start = calibrate::cost(&nominal, &wdata);
+    let wfirst = wdata.first().unwrap_or(first);
+    let (base_analysis, _) = analyse(&base.params, wfirst)?;
+
+    let mut steps: Vec<Step> = steps_so_far;
+    let mut last_scores = Vec::new();
+    let mut rejected: Vec<Rejection> = Vec::new();
+    let mut resettled = false;
+    while steps.len() < opts.max_steps && cx.material(cur.cost, &wdata) {
+        // The rows a search from afar can use, under the current fit: a candidate's refit
+        // searches there and is polished and judged on the fine rows.
+        let sdata = cx.weigh_smooth(&cur.params);
+        let rdata = calibrate::robust(&sdata);
+        let rows = search::Rows {
+            robust: &rdata,
+            smooth: &sdata,
+            fine: &wdata,
+        };
+        // A candidate must beat the model without it refitted the same way (the search is
+        // stochastic: a refit that merely finds a better point of the base set must not be
+        // credited to an effect).
+        let null = search::null_refit(&cur, &rows);
+        if null.cost < cur.cost {
+            adopt(&mut cur, null);
+        }
+        // An effect the model does not have yet, or one it carries only as a bounded
+        // background (the mesh damping): its whole range is the candidate.
+        let background = |c: Effect| {
+            cur.knobs
+                .iter()
+                .any(|k| k.param == Param::Effect(c) && k.floor_ok)
+        };
+        let cands: Vec<(Effect, Knob)> = opts
+            .candidates
+            .iter()
+            .filter(|&&c| cur.params.effects.get(c) == 0.0 || background(c))
+            .map(|&c| (c, calibrate::knob(&cur.params, Param::Effect(c), max_v)))
+            .collect();
+        if cands.is_empty() {
+            break;
+        }
+        let scores = search::score(&cur, &cands, &wdata, max_v);
+        let score_list: Vec<(Effect, f64, f64)> = scores
+            .iter()
+            .map(|(e, _, c, v)| (*e, rms_nrmse(*c), *v))
+            .collect();
+        last_scores = score_list.clone();
+        let cur_poor = cx.poor(cur.cost, &wdata);
+        let take = if cur_poor {
+            scores.len()
+        } else {
+            opts.refit_top
+        };
+        let top: Vec<Effect> = scores.iter().take(take).map(|x| x.0).collect();
+        let refitted: Vec<&(Effect, Knob, f64, f64)> = scores
+            .iter()
+            .filter(|x| top.contains(&x.0) || top.iter().any(|&t| kin(t).contains(&x.0)))
+            .collect();
+        // The file's values with the effects added so far: a second start when a missing
+        // effect has dragged the current fit off (to a bound, or far above the floor).
+        let mut from_file = nominal;
+        for kn in &cur.knobs {
+            if let Param::Effect(added) = kn.param {
+                from_file.effects.set(added, cur.params.effects.get(added));
+            }
+        }
+        let cur_bounds = calibrate::at_bounds(&cur);
+        let starts = if cur_poor || !cur_bounds.is_empty() {
+            vec![cur.params, from_file]
+        } else {
+            vec![cur.params]
+        };
+        let mut local = search::local_refits(&cx, &cur, &refitted, &starts, &rows);
+        search::kin_starts(&cx, &cur, &mut local, &rows);
+        let alts = search::structural_refits(&cx, &local, cur_poor, &from_file);
+        let judged = judge::judge(&cx, &cur, &wdata, local, alts, &cur_bounds);
+        let class = judge::class(&judged, opts);
+        let Some((i, ho)) = judge::accept(&cx, &cur, &judged, &class, &mut rejected) else {
+            for j in judged.iter().filter(|j| j.admissible.is_err()) {
+                rejected.push(Rejection {
+                    effect: j.effect,
+                    value: j.value,
+                    nrmse_after: rms_nrmse(j.fit.cost),
+                    reason: j.admissible.clone().err().unwrap_or_default(),
+                });
+            }
+            rejected.sort_by(|a, b| a.nrmse_after.total_cmp(&b.nrmse_after));
+            // Before giving up, settle the current model once more from where it is, globally:
+            // a base bent by a missing effect can sit in a basin from which no single
+            // candidate's refit climbs out, and a better basin changes what the candidates
+            // see.
+            if !resettled {
+                resettled = true;
+                let (g, w) = cx.settle(&cur.params, &cur.knobs, true);
+                // A model that misses its own predictable rows grossly (NRMSE above
+                // `poor_ratio` times their floor) where the settle from it follows its own
+                // is stuck: the rows both keep leave out the very rows it misses, and it can
+                // win there (second_mode/1 of the foreign suite, second pass: 0.23 on its own
+                // rows, 0.029 against 0.033 on the rows both keep). Only here, where the
+                // incumbent has come through a search that found nothing: between the two
+                // fresh base settles the same rule picked the wrong basin (tach_gain/1, whose
+                // seed at 2.7 times the floor on its own rows is the right one).
+                // (Each fit's cost is its plain cost on its own rows.)
+                let stuck = cx.poor(cur.cost, &wdata) && !cx.poor(g.cost, &w);
+                let (c2, w2, better) = if stuck {
+                    (g, w, true)
+                } else {
+                    better_on_common((cur.clone(), wdata.clone()), (g, w), data)
+                };
+                if better {
+                    adopt(&mut cur, c2);
+                    wdata = w2;
+                    rejected.clear();
+                    continue;
+                }
+            }
+            break;
+        };
+        rejected.clear();
+        let Some(chosen) = judged.get(i) else { break };
+        let others: Vec<(Effect, f64)> = class
+            .iter()
+            .filter(|&&x| x != i)
+            .filter_map(|&x| judged.get(x).map(|j| (j.effect, j.value)))
+            .collect();
+        let separate_by = others
+            .first()
+            .map(|(o, _)| separating_measurement(chosen.effect, *o, &first.output))
+            .unwrap_or_default();
+        // The effect can change where the model is predictable (mesh damping calms rattle):
+        // settle again, locally.
+        let (fit, w) = cx.settle(&chosen.fit.params, &chosen.fit.knobs, true);
+        let (fit, w, _) =
+            better_on_common((chosen.fit.clone(), chosen.own.clone()), (fit, w), data);
+        // Before and after on the rows both models keep (each model's own rows differ: the
+        // two numbers on different rows can even read as a step backwards).
+        let both = common_rows(data, &wdata, &w);
+        let nrmse_before = rms_nrmse(calibrate::cost(&cur.params, &both));
+        let nrmse_after_step = rms_nrmse(calibrate::cost(&fit.params, &both));
+        wdata = w;
+        let idx = fit.knobs.len() - 1;
+        steps.push(Step {
+            effect: chosen.effect,
+            value: fit.values.get(idx).copied().unwrap_or(f64::NAN),
+            std_error: fit.std_errors.get(idx).copied().unwrap_or(f64::NAN),
+            nrmse_before,
+            nrmse_after: nrmse_after_step,
+            delta_bic: chosen.delta_bic,
+            scores: score_list,
+            partial: false,
+            indistinguishable_from: others,
+            separate_by,
+            held_out: ho,
+        });
+        cur = fit;
+        if let Some(r) = judge::backward_step(&cx, &cur, &wdata, &steps, chosen.effect) {
+            let st = steps.remove(r.step);
+            rejected.push(Rejection {
+                effect: st.effect,
+                value: st.value,
+                nrmse_after: rms_nrmse(r.without.cost),
+                reason: r.why,
+            });
+            adopt(&mut cur, r.without);
+            wdata = r.own;
+        }
+    }
+    let wfirst = wdata.first().unwrap_or(first);
+    let (final_analysis, final_trace) = analyse(&cur.params, wfirst)?;
+    let unexplained = cx.material(cur.cost, &wdata);
+    for st in &mut steps {
+        st.partial = unexplained;
+    }
+    let (validation, validation_floor) = match (
+        cx.val_weighted(&cur.params),
+        cx.val_weighted(&nominal),
+        cx.val_sigma,
+    ) {
+        (Some(vc), Some(vn), Some(vs)) => (
+            Some((
+                calibrate::nrmse(&nominal, &vn),
+                calibrate::nrmse(&cur.params, &vc),
+            )),
+            Some(noise::floor_nrmse(vs, &vc.weight, vc.norm)),
+        ),
+        _ => (None, None),
+    };
+    let unpredictable_rms = {
+        let pick = |src: &[f64]| -> Vec<f64> {
+            src.iter()
+                .zip(&wfirst.weight)
+                .filter(|(_, w)| **w < 0.5)
+                .map(|(v, _)| *v)
+                .collect()
+        };
+        let (a, b) = (pick(&wfirst.y), pick(&final_trace.y));
+        let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt();
+        (!a.is_empty()).then(|| (rms(&a), rms(&b)))
+    };
+    Ok(Outcome {
+        nominal,
+        nominal_analysis,
+        base_analysis,
+        base,
+        steps,
+        unexplained,
+        final_analysis,
+        final_nrmse_all_rows: calibrate::nrmse(&cur.params, first),
+        floor_nrmse: rms_nrmse(cx.floor(&wdata)),
+        unpredictable_share: wdata.iter().map(Data::excluded_share).collect(),
+        weights: wdata.iter().map(|d| d.weight.clone()).collect(),
+        noise_sigma: cx.sigma,
+        unpredictable_rms,
+        final_fit: cur,
+        validation,
+        validation_floor,
+        validation_in_fit: None,
+        last_scores,
+        rejected,
+    })
+}

@@ -1,0 +1,289 @@
+//! The search for explanations: every candidate effect scored by a linear projection of the
+//! residual, the best refitted with the default set — locally, from a kin's refit, and
+//! globally when the fit is poor.
+
+use super::kin::kin;
+use super::Ctx;
+use crate::calibrate::{self, Data, Fit, Knob, Point};
+use geared_servo::{ActuatorParams, Effect};
+use rayon::prelude::*;
+
+/// The records as one round of the search sees them, weighted under the current fit.
+pub(super) struct Rows<'a> {
+    /// The smooth rows on the robust window loss ([`calibrate::robust`]): where a search
+    /// from afar goes.
+    pub(super) robust: &'a [Data],
+    /// The smooth rows ([`super::settle::weigh_smooth`]): a refit's first polish.
+    pub(super) smooth: &'a [Data],
+    /// The predictable rows ([`super::settle::weigh`]): its last polish.
+    pub(super) fine: &'a [Data],
+}
+
+/// A candidate's refit with the calibrated set.
+pub(super) struct Refit {
+    /// The candidate.
+    pub(super) effect: Effect,
+    /// The knobs refitted: the current ones with the candidate's last.
+    pub(super) knobs: Vec<Knob>,
+    /// Where the refit ended.
+    pub(super) fit: Point,
+}
+
+/// The current model refitted as a candidate is, without a new effect: a coarse search on
+/// the robust rows, a polish on the smooth ones, a last one (with standard errors) on the
+/// fine ones.
+pub(super) fn null_refit(cur: &Fit, rows: &Rows) -> Fit {
+    let (p1, _) = calibrate::coarse_search(&cur.params, &cur.knobs, rows.robust, 1);
+    let f1 = calibrate::polish_point(&p1, &cur.knobs, rows.smooth, 8);
+    calibrate::polish(&f1.params, &cur.knobs, rows.fine, 8)
+}
+
+/// `p` polished on the smooth rows, then on the fine ones.
+fn polish_twice(p: &ActuatorParams, knobs: &[Knob], rows: &Rows) -> Point {
+    let f1 = calibrate::polish_point(p, knobs, rows.smooth, 8);
+    calibrate::polish_point(&f1.params, knobs, rows.fine, 8)
+}
+
+/// The cheapest of `tries` on `data` (the first of equal costs), the costs in parallel.
+fn cheapest(tries: Vec<ActuatorParams>, data: &[Data]) -> Option<(f64, ActuatorParams)> {
+    let costed: Vec<(f64, ActuatorParams)> = tries
+        .into_par_iter()
+        .map(|q| (calibrate::cost(&q, data), q))
+        .collect();
+    let mut it = costed.into_iter();
+    let first = it.next()?;
+    Some(it.fold(first, |b, x| if x.0 < b.0 { x } else { b }))
+}
+
+/// `p` with the knob `k` at each of `values`.
+fn with_values(
+    p: &ActuatorParams,
+    k: &Knob,
+    values: impl IntoIterator<Item = f64>,
+) -> Vec<ActuatorParams> {
+    values
+        .into_iter()
+        .map(|v| {
+            let mut q = *p;
+            calibrate::set(&mut q, k.param, v);
+            q
+        })
+        .collect()
+}
+
+/// Local refits of the candidates `taken` ((effect, knob, projected cost, projected start
+/// value), as [`score`] gives them), in parallel, each the best over `starts`: from a start,
+/// the effect at the cheaper of the projection's value and the best of its grid with
+/// everything else held (the projection is linear and can undershoot a strongly nonlinear
+/// effect), then a coarse search and two polishes.
+pub(super) fn local_refits(
+    cx: &Ctx,
+    cur: &Fit,
+    taken: &[&(Effect, Knob, f64, f64)],
+    starts: &[ActuatorParams],
+    rows: &Rows,
+) -> Vec<Refit> {
+    taken
+        .par_iter()
+        .filter_map(|&&(effect, ref k, _, v)| {
+            let mut knobs: Vec<Knob> = cur
+                .knobs
+                .iter()
+                .filter(|x| x.param != k.param)
+                .cloned()
+                .collect();
+            knobs.push(k.clone());
+            let mut best: Option<Point> = None;
+            for start in starts {
+                let mut p = *start;
+                if v != 0.0 {
+                    calibrate::set(&mut p, k.param, v);
+                }
+                // The start as it is competes only when the effect is on there.
+                let own = (calibrate::get(&p, k.param) != 0.0).then_some(p);
+                let grid = with_values(start, k, grid(start, effect, k, cx.max_v));
+                let p = cheapest(own.into_iter().chain(grid).collect(), rows.robust)
+                    .map_or(p, |(_, q)| q);
+                let (p1, _) = calibrate::coarse_search(&p, &knobs, rows.robust, 1);
+                let fit = polish_twice(&p1, &knobs, rows);
+                if best.as_ref().is_none_or(|b| fit.cost < b.cost) {
+                    best = Some(fit);
+                }
+            }
+            best.map(|fit| Refit { effect, knobs, fit })
+        })
+        .collect()
+}
+
+/// Kin starts: a candidate whose kin's local refit did better starts once more from that
+/// refit, with the kin switched back to the current model's value and the candidate at the
+/// best of its grid and its own refitted value (a spring and gravity are the same torque at
+/// small angles: the one that found the basin shows the other where it is). Replaces the
+/// candidate's refit where that does better.
+pub(super) fn kin_starts(cx: &Ctx, cur: &Fit, local: &mut [Refit], rows: &Rows) {
+    let swaps: Vec<(usize, Point)> = (0..local.len())
+        .into_par_iter()
+        .filter_map(|i| {
+            let r = local.get(i)?;
+            let k = r.knobs.last()?;
+            let best_kin = local
+                .iter()
+                .filter(|x| kin(r.effect).contains(&x.effect) && x.fit.cost < r.fit.cost)
+                .min_by(|a, b| a.fit.cost.total_cmp(&b.fit.cost))?;
+            let kk = best_kin.knobs.last()?;
+            let mut q = best_kin.fit.params;
+            calibrate::set(&mut q, kk.param, calibrate::get(&cur.params, kk.param));
+            let v0 = calibrate::get(&r.fit.params, k.param);
+            let tries = with_values(
+                &q,
+                k,
+                grid(&q, r.effect, k, cx.max_v).into_iter().chain([v0]),
+            );
+            let (_, p) = cheapest(tries, rows.robust)?;
+            let fit = polish_twice(&p, &r.knobs, rows);
+            (fit.cost < r.fit.cost).then_some((i, fit))
+        })
+        .collect();
+    for (i, fit) in swaps {
+        if let Some(slot) = local.get_mut(i) {
+            slot.fit = fit;
+        }
+    }
+}
+
+/// Structural search: the global refits, by candidate (empty where there is none).
+///
+/// When the fit is poor, a missing effect has bent it (friction standing in for viscous
+/// damping, say), and a local refit stays in that basin. The candidates whose local refits
+/// did best are then calibrated globally, like the base set, from the file's values
+/// (`from_file`, with the effects added so far) with the effect at its refitted value.
+/// When it is not poor, the kin of the best local refit get the global search: a kin can
+/// need every calibrated parameter rescaled (a tachometer gain against motor friction),
+/// which a local refit does not reach, and a tie must be found to be reported. A poor fit
+/// searches both: the best few, and the kin of the best (a tie with an effect whose local
+/// refit stayed in the bent basin must still be found).
+pub(super) fn structural_refits(
+    cx: &Ctx,
+    local: &[Refit],
+    cur_poor: bool,
+    from_file: &ActuatorParams,
+) -> Vec<Vec<Point>> {
+    let mut order: Vec<usize> = (0..local.len()).collect();
+    order.sort_by(|&a, &b| local[a].fit.cost.total_cmp(&local[b].fit.cost));
+    let best_kin = order
+        .first()
+        .and_then(|&i| local.get(i))
+        .map(|x| kin(x.effect))
+        .unwrap_or_default();
+    let structural: Vec<usize> = order
+        .iter()
+        .enumerate()
+        .filter(|&(rank, &i)| {
+            (cur_poor && rank < cx.opts.refit_top)
+                || local.get(i).is_some_and(|x| best_kin.contains(&x.effect))
+        })
+        .map(|(_, &i)| i)
+        .collect();
+    let mut alts: Vec<Vec<Point>> = vec![Vec::new(); local.len()];
+    let globals: Vec<(usize, Point)> = structural
+        .par_iter()
+        .filter_map(|&i| {
+            let r = local.get(i)?;
+            let k = r.knobs.last()?;
+            let mut q = *from_file;
+            calibrate::set(&mut q, k.param, calibrate::get(&r.fit.params, k.param));
+            Some((i, Point::from(&cx.settle(&q, &r.knobs, true).0)))
+        })
+        .collect();
+    for (i, g) in globals {
+        if let Some(slot) = alts.get_mut(i) {
+            slot.push(g);
+        }
+    }
+    alts
+}
+
+/// Grid of values tried for `effect` (whose knob is `k`) in the one-dimensional score.
+fn grid(p: &ActuatorParams, effect: Effect, k: &Knob, max_abs_v: f64) -> Vec<f64> {
+    if let Some(g) = calibrate::effect_grid(p, effect, k, max_abs_v) {
+        return g;
+    }
+    let s = calibrate::effect_scale(p, effect, max_abs_v);
+    let v: Vec<f64> = match effect {
+        Effect::InputDelay => [0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0]
+            .iter()
+            .map(|f| f * s)
+            .collect(),
+        Effect::VoltageLimit => [0.3, 0.45, 0.6, 0.7, 0.8, 0.9, 0.95]
+            .iter()
+            .map(|f| f * s)
+            .collect(),
+        Effect::TachGain => vec![-0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3],
+        _ => [1e-3, 3e-3, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0]
+            .iter()
+            .map(|f| f * s)
+            .collect(),
+    };
+    v.into_iter().map(|x| x.clamp(k.lo, k.hi)).collect()
+}
+
+/// Linearised projection of the residual on each candidate: for every grid value v, the
+/// residual change d_v that the effect at v causes (a secant from zero, so the kinks of
+/// friction and backlash near zero do not matter), then the least-squares fit of the residual
+/// by d_v together with the Jacobian of the current knobs (so that what the current knobs
+/// already compensate is not credited to the effect). Returns (knob, predicted cost, start
+/// value), best first.
+pub(super) fn score(
+    cur: &Fit,
+    cands: &[(Effect, Knob)],
+    data: &[Data],
+    max_v: f64,
+) -> Vec<(Effect, Knob, f64, f64)> {
+    let r0 = calibrate::residuals(&cur.params, data);
+    let z: Vec<f64> = cur
+        .knobs
+        .iter()
+        .map(|k| k.to_z(calibrate::get(&cur.params, k.param)))
+        .collect();
+    let j = calibrate::jacobian(&cur.params, &cur.knobs, data, &z);
+    let base_pred = {
+        let svd = j.clone().svd(true, true);
+        match svd.solve(&r0, 1e-12) {
+            Ok(x) => (&r0 - &j * x).norm_squared(),
+            Err(_) => r0.norm_squared(),
+        }
+    };
+    let mut out: Vec<(Effect, Knob, f64, f64)> = cands
+        .iter()
+        .map(|(e, k)| {
+            let g = grid(&cur.params, *e, k, max_v);
+            let best = g
+                .par_iter()
+                .filter_map(|&v| {
+                    let mut q = cur.params;
+                    calibrate::set(&mut q, k.param, v);
+                    // d = r(v) − r0 is minus the model change; fit r0 ≈ −(J δ + α d).
+                    let d = calibrate::residuals(&q, data) - &r0;
+                    let mut a = j.clone().insert_column(j.ncols(), 0.0);
+                    a.set_column(j.ncols(), &d);
+                    let x = a.clone().svd(true, true).solve(&r0, 1e-12).ok()?;
+                    let alpha = -x.get(j.ncols()).copied().unwrap_or(f64::NAN);
+                    if alpha.is_nan() || alpha <= 0.0 {
+                        return None;
+                    }
+                    let pred = (&r0 - &a * x).norm_squared();
+                    let start = match e {
+                        Effect::VoltageLimit => v,
+                        _ => (v * alpha.clamp(0.3, 3.0)).clamp(k.lo, k.hi),
+                    };
+                    Some((pred, start))
+                })
+                .collect::<Vec<_>>()
+                .into_iter()
+                .fold((base_pred, 0.0), |b, x| if x.0 < b.0 { x } else { b });
+            (*e, k.clone(), best.0, best.1)
+        })
+        .collect();
+    out.sort_by(|a, b| a.2.total_cmp(&b.2));
+    out
+}
