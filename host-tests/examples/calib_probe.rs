@@ -74,7 +74,16 @@ fn main() {
         .map(|s| s.split(',').map(|x| x.parse().unwrap()).collect())
         .unwrap_or(vec![0]);
     for draw in draws {
-        let c = foreign::case(kind, draw).unwrap();
+        // `GS_FOREIGN_SECONDS=20`: the estimation record's stepped sine that long, as in the
+        // suite.
+        let mut making = foreign::Making::default();
+        if let Some(secs) = std::env::var("GS_FOREIGN_SECONDS")
+            .ok()
+            .and_then(|s| s.trim().parse().ok())
+        {
+            making.stepped_sine = foreign::SteppedSine::lasting(secs);
+        }
+        let c = foreign::case_with(kind, draw, &making).unwrap();
         if std::env::var("ONLY").is_ok() {
             only(&c);
             continue;
@@ -162,6 +171,20 @@ fn main() {
             calibrate::nrmse(&out.final_fit.params, &wt)
         );
         with_expected(&c, &out);
+        if std::env::var("THIN").is_ok() {
+            for (name, p) in [("truth", &te), ("base", &out.base.params)] {
+                thin(name, p, d);
+            }
+            continue;
+        }
+        if std::env::var("TRAP").is_ok() {
+            trap(&out.final_fit.params, &out.base.params, d, &te);
+            continue;
+        }
+        if std::env::var("VALLEY").is_ok() {
+            valley(&c, &out.final_fit, &w, &te);
+            continue;
+        }
         if std::env::var("QUICK").is_ok() {
             continue;
         }
@@ -602,4 +625,124 @@ pub fn only(c: &foreign::ForeignCase) {
             .collect::<Vec<_>>()
     );
     println!("  base [{}]", fmt(&eq_truth(c), &out.base.params));
+}
+
+/// The friction valley: the motor's and the load's Coulomb friction moved against each other
+/// with their sum at the motor (T_m + T_L/N) held, from `fit`; the cost on `w` (plain and
+/// robust) at each point, and where a polish from there ends.
+pub fn valley(
+    c: &foreign::ForeignCase,
+    fit: &calibrate::Fit,
+    w: &calibrate::Data,
+    te: &ActuatorParams,
+) {
+    let n = 50.0;
+    let p0 = fit.params;
+    let tm = calibrate::get(&p0, Param::MotorFriction);
+    let tl = calibrate::get(&p0, Param::LoadFriction);
+    let total = tm + tl / n;
+    let rw = calibrate::robust(std::slice::from_ref(w));
+    println!(
+        "  valley of {} (truth T_m {:.3e} T_L {:.3e}; fit {:.3e} {:.3e})",
+        c.label(),
+        calibrate::get(te, Param::MotorFriction),
+        calibrate::get(te, Param::LoadFriction),
+        tm,
+        tl
+    );
+    for share in [0.3, 0.4, 0.5, 0.55, 0.6, 0.65, 0.7, 0.76, 0.8, 0.85] {
+        let mut q = p0;
+        calibrate::set(&mut q, Param::MotorFriction, share * total);
+        calibrate::set(&mut q, Param::LoadFriction, (1.0 - share) * total * n);
+        let plain = calibrate::nrmse(&q, w);
+        let robust = calibrate::cost(&q, &rw);
+        let f = calibrate::polish(&q, &fit.knobs, std::slice::from_ref(w), 20);
+        println!(
+            "  T_m share {share:.2}: plain {plain:.4} robust {robust:.1} -> polished {:.4} [{}]",
+            f.cost.sqrt(),
+            fmt(te, &f.params)
+        );
+    }
+}
+
+/// Which of the final fit, the base and the truth the search's objective prefers, on the
+/// smooth rows (robust loss, thinned, as the global search sees them) and the predictable
+/// rows (plain) of each.
+pub fn trap(fin: &ActuatorParams, base: &ActuatorParams, d: &calibrate::Data, te: &ActuatorParams) {
+    let who = [("final", fin), ("base", base), ("truth", te)];
+    for (name, p) in who {
+        let (ws, _) = predictability::weigh_smooth(p, d);
+        let (wp, _) = predictability::weigh(p, d);
+        let th = calibrate::thinned(std::slice::from_ref(&ws));
+        let rs = calibrate::robust(&th);
+        let rw = calibrate::robust(std::slice::from_ref(&ws));
+        let costs: Vec<String> = who
+            .iter()
+            .map(|(n, q)| {
+                format!(
+                    "{n}: robust thinned {:.4e} whole {:.4e} plain thinned {:.4} whole {:.4} fine {:.4}",
+                    calibrate::cost(q, &rs),
+                    calibrate::cost(q, &rw),
+                    calibrate::cost(q, &th).sqrt(),
+                    calibrate::nrmse(q, &ws),
+                    calibrate::nrmse(q, &wp)
+                )
+            })
+            .collect();
+        println!(
+            "  rows of {name} (smooth excl {:.2}, fine excl {:.2}): {}",
+            ws.excluded_share(),
+            wp.excluded_share(),
+            costs.join(" | ")
+        );
+    }
+}
+
+/// Per burst kept by the thinning: how far the run over the thinned record departs from the
+/// whole run on the same rows (RMS of the difference over the RMS of the whole run), on the
+/// smooth rows of `p`, in the first 0.1 s and after.
+pub fn thin(name: &str, p: &ActuatorParams, d: &calibrate::Data) {
+    let (ws, _) = predictability::weigh_smooth(p, d);
+    let mut idx = ws.clone();
+    idx.y = (0..idx.y.len()).map(|k| k as f64).collect();
+    let map: Vec<usize> = idx
+        .thinned(calibrate::SEARCH_ROWS)
+        .y
+        .iter()
+        .map(|v| *v as usize)
+        .collect();
+    let th = ws.thinned(calibrate::SEARCH_ROWS);
+    let whole = calibrate::output(p, &ws).unwrap();
+    let part = calibrate::output(p, &th).unwrap();
+    let starts = ws.restarts();
+    let mut tot = (0.0, 0.0);
+    for &(a, b) in &starts {
+        let rows: Vec<(usize, usize)> = map
+            .iter()
+            .enumerate()
+            .filter(|(_, &k)| k >= a && k < b)
+            .map(|(i, &k)| (i, k))
+            .collect();
+        if rows.is_empty() {
+            continue;
+        }
+        let mut e = [(0.0, 0.0, 0.0); 2];
+        for &(i, k) in &rows {
+            let j = if k - a < 200 { 0 } else { 1 };
+            let wgt = ws.weight[k];
+            e[j].0 += wgt * (part[i] - whole[k]).powi(2);
+            e[j].1 += wgt * whole[k].powi(2);
+            e[j].2 += wgt;
+            tot.0 += wgt * (part[i] - whole[k]).powi(2);
+            tot.1 += wgt * whole[k].powi(2);
+        }
+        let r = |x: (f64, f64, f64)| if x.1 > 0.0 { (x.0 / x.1).sqrt() } else { 0.0 };
+        if r(e[0]) > 0.02 || r(e[1]) > 0.02 {
+            println!("  {name} burst at {:.2} s: first 0.1 s {:.3} ({:.0} rows kept), after {:.3} ({:.0} rows kept)", a as f64 * d.sample_period_s, r(e[0]), e[0].2, r(e[1]), e[1].2);
+        }
+    }
+    println!(
+        "  {name}: thinned vs whole on kept smooth rows {:.4}",
+        (tot.0 / tot.1).sqrt()
+    );
 }
