@@ -76,14 +76,7 @@ fn main() {
     for draw in draws {
         // `GS_FOREIGN_SECONDS=20`: the estimation record's stepped sine that long, as in the
         // suite.
-        let mut making = foreign::Making::default();
-        if let Some(secs) = std::env::var("GS_FOREIGN_SECONDS")
-            .ok()
-            .and_then(|s| s.trim().parse().ok())
-        {
-            making.stepped_sine = foreign::SteppedSine::lasting(secs);
-        }
-        let c = foreign::case_with(kind, draw, &making).unwrap();
+        let c = foreign::case_with(kind, draw, &foreign::Making::from_env()).unwrap();
         if std::env::var("ONLY").is_ok() {
             only(&c);
             continue;

@@ -466,6 +466,26 @@ impl Default for Making {
     }
 }
 
+impl Making {
+    /// The default, with the estimation record's stepped sine lasting `GS_FOREIGN_SECONDS`
+    /// seconds when that is set (the suite and the probes on long records).
+    ///
+    /// # Panics
+    /// When `GS_FOREIGN_SECONDS` is set and not a number of seconds: a development switch
+    /// mistyped must not run the standard records unnoticed.
+    pub fn from_env() -> Making {
+        let mut making = Making::default();
+        if let Ok(s) = std::env::var("GS_FOREIGN_SECONDS") {
+            let secs: f64 = s
+                .trim()
+                .parse()
+                .expect("GS_FOREIGN_SECONDS: a number of seconds");
+            making.stepped_sine = SteppedSine::lasting(secs);
+        }
+        making
+    }
+}
+
 /// The true unit of a case.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Truth {

@@ -251,14 +251,7 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
         jobs.retain(|&(k, d)| wanted.contains(&foreign::label(k, d).as_str()));
         assert!(!jobs.is_empty(), "GS_FOREIGN_CASES={only}: no such case");
     }
-    let mut making = foreign::Making::default();
-    if let Ok(s) = std::env::var("GS_FOREIGN_SECONDS") {
-        let secs: f64 = s
-            .trim()
-            .parse()
-            .expect("GS_FOREIGN_SECONDS: a number of seconds");
-        making.stepped_sine = foreign::SteppedSine::lasting(secs);
-    }
+    let making = foreign::Making::from_env();
     let cases = foreign::cases_with(&jobs, &making).unwrap();
     let gen = t.elapsed();
     eprintln!(
