@@ -174,6 +174,17 @@ fn main() {
             trap(&out.final_fit.params, &out.base.params, d, &te);
             continue;
         }
+        if std::env::var("VAL").is_ok() {
+            val(
+                &c,
+                &[
+                    ("truth", &te),
+                    ("base", &out.base.params),
+                    ("final", &out.final_fit.params),
+                ],
+            );
+            continue;
+        }
         if std::env::var("VALLEY").is_ok() {
             valley(&c, &out.final_fit, &w, &te);
             continue;
@@ -738,4 +749,29 @@ pub fn thin(name: &str, p: &ActuatorParams, d: &calibrate::Data) {
         "  {name}: thinned vs whole on kept smooth rows {:.4}",
         (tot.0 / tot.1).sqrt()
     );
+}
+
+/// The validation record under each model: its kept share, each model's NRMSE on each one's
+/// kept rows, and the floor there.
+pub fn val(c: &foreign::ForeignCase, ms: &[(&str, &ActuatorParams)]) {
+    let v = &c.validation;
+    let sigma = noise::sigma(&v.y);
+    let ws: Vec<calibrate::Data> = ms
+        .iter()
+        .map(|(_, p)| predictability::weigh(p, v).0)
+        .collect();
+    for ((n, _), w) in ms.iter().zip(&ws) {
+        let fl = noise::floor_nrmse(sigma, &w.weight, w.norm);
+        let row: Vec<String> = ms
+            .iter()
+            .map(|(m, p)| format!("{m} {:.4}", calibrate::nrmse(p, w)))
+            .collect();
+        println!(
+            "VAL rows of {n}: excl {:.3} kept {} floor {:.4}: {}",
+            w.excluded_share(),
+            w.weight.iter().filter(|x| **x > 0.5).count(),
+            fl,
+            row.join(", ")
+        );
+    }
 }
