@@ -245,7 +245,21 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
     // checks are then over those cases alone. `GS_FOREIGN_SECONDS=20` makes the estimation
     // records' stepped sines that long (the benchmark's 50 bursts, which the global search
     // sees thinned: calibrate::thinned); the bars are the same.
-    let mut jobs = foreign::jobs(foreign::SUITE_DRAWS);
+    // `GS_FOREIGN_DRAWS=3..6`: other draws than the suite's (units, effect values and noise
+    // that no change was ever tried on: a held-out check of the method).
+    let draws = match std::env::var("GS_FOREIGN_DRAWS") {
+        Ok(s) => {
+            let (a, b) = s
+                .split_once("..")
+                .expect("GS_FOREIGN_DRAWS: a range such as 3..6");
+            let a: u64 = a.trim().parse().expect("GS_FOREIGN_DRAWS: first draw");
+            let b: u64 = b.trim().parse().expect("GS_FOREIGN_DRAWS: end draw");
+            assert!(a < b, "GS_FOREIGN_DRAWS={s}: empty range");
+            a..b
+        }
+        Err(_) => foreign::SUITE_DRAWS,
+    };
+    let mut jobs = foreign::jobs(draws);
     if let Ok(only) = std::env::var("GS_FOREIGN_CASES") {
         let wanted: Vec<&str> = only.split(',').map(str::trim).collect();
         jobs.retain(|&(k, d)| wanted.contains(&foreign::label(k, d).as_str()));
