@@ -77,6 +77,19 @@ fn main() {
         // `GS_FOREIGN_SECONDS=20`: the estimation record's stepped sine that long, as in the
         // suite.
         let c = foreign::case_with(kind, draw, &foreign::Making::from_env()).unwrap();
+        if std::env::var("UNIT").is_ok() {
+            let (t, f) = (&c.truth.motor, &c.file.motor);
+            println!(
+                "{}: tach {:+.2}% Kt {:+.2}% Ke {:+.2}% R {:+.2}% L {:+.2}%",
+                c.label(),
+                100.0 * (t.tach_v_s_per_rad / f.tach_v_s_per_rad - 1.0),
+                100.0 * (t.torque_constant_nm_per_a / f.torque_constant_nm_per_a - 1.0),
+                100.0 * (t.back_emf_v_s_per_rad / f.back_emf_v_s_per_rad - 1.0),
+                100.0 * (t.resistance_ohm / f.resistance_ohm - 1.0),
+                100.0 * (t.inductance_h / f.inductance_h - 1.0),
+            );
+            continue;
+        }
         if std::env::var("ONLY").is_ok() {
             only(&c);
             continue;
@@ -140,8 +153,20 @@ fn main() {
             t0.elapsed().as_secs_f64(),
             out.steps
                 .iter()
-                .map(|s| format!("{}={:.3e}", s.effect, s.value))
+                .map(|s| format!(
+                    "{}={:.3e} ({:.4}->{:.4}, dBIC {:.0}{})",
+                    s.effect,
+                    s.value,
+                    s.nrmse_before,
+                    s.nrmse_after,
+                    s.delta_bic,
+                    if s.partial { ", partial" } else { "" }
+                ))
                 .collect::<Vec<_>>()
+        );
+        println!(
+            "  validation {:?} floor {:?}; second pass from {:?}; unexplained {}",
+            out.validation, out.validation_floor, out.validation_in_fit, out.unexplained
         );
         println!(
             "  base {:.4} [{}]",

@@ -279,6 +279,47 @@ pub fn true_unit(draw: u64) -> Result<ActuatorParams, HostError> {
     Ok(p)
 }
 
+/// The unit `truth` (no hidden effect but mesh damping, measured stiffness) as a model with
+/// the motor constants of `file` (R, k_t, k_b, k_ts) sees it on a record of the tachometer
+/// alone: the same tachometer output for every command, exactly (the model's speeds and
+/// angles are the unit's times k_b'/k_b, primes for the unit).
+///
+/// With m = (R'/R)(k_t/k_t')(k_b/k_b') and q = (R'/R)(k_t/k_t'): inertias, stiffnesses and
+/// viscous coefficients times m, Coulomb frictions times q, backlash times k_b'/k_b,
+/// inductance L'·R/R', and a tachometer gain error g = (k_ts'/k_ts)(k_b/k_b') − 1
+/// ([`ForeignCase::unit_tach_gain`]). Checked against the emulator by
+/// `diagnose_foreign.rs::the_unit_in_the_files_constants_is_exact`.
+pub fn in_file_constants(truth: &ActuatorParams, file: &ActuatorParams) -> ActuatorParams {
+    let (t, f) = (&truth.motor, &file.motor);
+    let r = t.resistance_ohm / f.resistance_ohm;
+    let q = r * f.torque_constant_nm_per_a / t.torque_constant_nm_per_a;
+    let speed = f.back_emf_v_s_per_rad / t.back_emf_v_s_per_rad;
+    let m = q * speed;
+    let mut p = *truth;
+    p.motor.resistance_ohm = f.resistance_ohm;
+    p.motor.torque_constant_nm_per_a = f.torque_constant_nm_per_a;
+    p.motor.back_emf_v_s_per_rad = f.back_emf_v_s_per_rad;
+    p.motor.tach_v_s_per_rad = f.tach_v_s_per_rad;
+    p.motor.inductance_h = t.inductance_h / r;
+    p.motor.inertia_kg_m2 *= m;
+    p.load.inertia_kg_m2 *= m;
+    if let Stiffness::Measured {
+        k1_nm_per_rad,
+        k2_nm_per_rad,
+    } = &mut p.gears.stiffness
+    {
+        *k1_nm_per_rad *= m;
+        *k2_nm_per_rad *= m;
+    }
+    p.motor.coulomb_friction_nm *= q;
+    p.load.coulomb_friction_nm *= q;
+    p.backlash_deg /= speed;
+    p.effects.mesh_damping *= m;
+    p.effects.tach_gain =
+        (1.0 + truth.effects.tach_gain) * (t.tach_v_s_per_rad / f.tach_v_s_per_rad) * speed - 1.0;
+    p
+}
+
 /// A material but physically plausible value of `e` for `draw`, in its unit: motor_viscous
 /// 4–8e-6, load_viscous 0.01–0.03, mesh_damping 0.05–0.12, hinge_stiffness 5–15, input_delay
 /// 0.6–1.2 ms, voltage_limit 6.5–8 V, tach_gain ±(0.06–0.12), stiction_ratio 1.5–2.5,
@@ -415,13 +456,47 @@ impl ForeignCase {
     /// What a calibration with the file's resistance should find for effect `e` of true
     /// value `v`: `v · s` when it [`scales_with_resistance`], `v / s` for the tachometer's
     /// current pickup (the model's current is s times the true one), `v` otherwise.
+    ///
+    /// A tachometer gain comes out combined with the unit's own ([`Self::unit_tach_gain`]):
+    /// (1 + v)(1 + g) − 1.
     pub fn expected_fitted(&self, e: Effect, v: f64) -> f64 {
         if scales_with_resistance(e) {
             v * self.resistance_scale
         } else if e == Effect::TachCurrentCoupling {
             v / self.resistance_scale
+        } else if e == Effect::TachGain {
+            (1.0 + v) * (1.0 + self.unit_tach_gain()) - 1.0
         } else {
             v
+        }
+    }
+
+    /// The tachometer gain error g the unit has without any hidden effect, as a model with
+    /// the file's motor constants sees it (dimensionless).
+    ///
+    /// The unit's tachometer constant and back-EMF constant each differ from the file's by up
+    /// to 1 % ([`true_unit`]), independently. On a record of the tachometer alone the data
+    /// fix neither the speed's scale nor the resistance: a model with the file's constants
+    /// reproduces the unit exactly with its speeds (and angles) scaled by K_e'/K_e, its
+    /// mechanical quantities rescaled, and a tachometer gain of
+    /// g = (k_t'/k_t)·(K_e/K_e') − 1 (primes: the unit). The two deviations add up to as much
+    /// as 2 %, material against 2 % noise over 10⁴ samples, so a fitted `tach_gain` near g is
+    /// a property of the unit, not an effect the suite hid. When the records also carry the
+    /// load angle, the angle pins the speed's scale and the tachometer alone is off:
+    /// g = k_t'/k_t − 1 (the back-EMF's deviation then shows as a ±1 % change of the
+    /// electrical damping, which no effect of the library represents).
+    pub fn unit_tach_gain(&self) -> f64 {
+        let carries_angle = self
+            .estimation_record
+            .outputs
+            .iter()
+            .any(|(name, _)| name == "load_angle_deg");
+        if carries_angle {
+            self.truth.motor.tach_v_s_per_rad / self.file.motor.tach_v_s_per_rad - 1.0
+        } else {
+            let mut unit = self.truth;
+            unit.effects.tach_gain = 0.0;
+            in_file_constants(&unit, &self.file).effects.tach_gain
         }
     }
 
