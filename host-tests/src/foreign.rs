@@ -474,17 +474,17 @@ impl ForeignCase {
     /// The tachometer gain error g the unit has without any hidden effect, as a model with
     /// the file's motor constants sees it (dimensionless).
     ///
-    /// The unit's tachometer constant and back-EMF constant each differ from the file's by up
-    /// to 1 % ([`true_unit`]), independently. On a record of the tachometer alone the data
-    /// fix neither the speed's scale nor the resistance: a model with the file's constants
-    /// reproduces the unit exactly with its speeds (and angles) scaled by K_e'/K_e, its
-    /// mechanical quantities rescaled, and a tachometer gain of
-    /// g = (k_t'/k_t)·(K_e/K_e') − 1 (primes: the unit). The two deviations add up to as much
-    /// as 2 %, material against 2 % noise over 10⁴ samples, so a fitted `tach_gain` near g is
-    /// a property of the unit, not an effect the suite hid. When the records also carry the
-    /// load angle, the angle pins the speed's scale and the tachometer alone is off:
-    /// g = k_t'/k_t − 1 (the back-EMF's deviation then shows as a ±1 % change of the
-    /// electrical damping, which no effect of the library represents).
+    /// The unit's tachometer constant k_ts and back-EMF constant k_b each differ from the
+    /// file's by up to 1 % ([`true_unit`]), independently. On a record of the tachometer
+    /// alone the data fix neither the speed's scale nor the resistance: a model with the
+    /// file's constants reproduces the unit exactly with its speeds (and angles) scaled by
+    /// k_b'/k_b, its mechanical quantities rescaled, and a tachometer gain of
+    /// g = (k_ts'/k_ts)·(k_b/k_b') − 1 (primes: the unit; [`in_file_constants`]). The two
+    /// deviations add up to as much as 2 %, material against 2 % noise over 10⁴ samples, so a
+    /// fitted `tach_gain` near g is a property of the unit, not an effect the suite hid. When
+    /// the records also carry the load angle, the angle pins the speed's scale and the
+    /// tachometer alone is off: g = k_ts'/k_ts − 1 (the back-EMF's deviation then shows as a
+    /// ±1 % change of the electrical damping, which no effect of the library represents).
     pub fn unit_tach_gain(&self) -> f64 {
         let carries_angle = self
             .estimation_record
