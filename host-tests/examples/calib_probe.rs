@@ -130,6 +130,10 @@ fn main() {
             widths(&c);
             continue;
         }
+        if std::env::var("STRUCT").is_ok() {
+            structural(&c);
+            continue;
+        }
         if std::env::var("BASE_ONLY").is_ok() {
             base_only(&c);
             continue;
@@ -162,6 +166,28 @@ fn main() {
                     s.delta_bic,
                     if s.partial { ", partial" } else { "" }
                 ))
+                .collect::<Vec<_>>()
+        );
+        for r in &out.rejected {
+            println!(
+                "  rejected {}={:.3e} ({:.4}): {}",
+                r.effect, r.value, r.nrmse_after, r.reason
+            );
+        }
+        println!(
+            "  last scores {:?}",
+            out.last_scores
+                .iter()
+                .map(|(e, c, v)| format!("{e} {c:.4} @{v:.3e}"))
+                .collect::<Vec<_>>()
+        );
+        println!(
+            "  knobs {:?}",
+            out.final_fit
+                .knobs
+                .iter()
+                .zip(&out.final_fit.values)
+                .map(|(k, v)| format!("{}={:.4e}", k.name(), v))
                 .collect::<Vec<_>>()
         );
         println!(
@@ -799,4 +825,185 @@ pub fn val(c: &foreign::ForeignCase, ms: &[(&str, &ActuatorParams)]) {
             row.join(", ")
         );
     }
+}
+
+/// The structural refit of the hidden effects, as `diagnose` would run it if it chose them:
+/// the global calibration from the file (+ background damping) with the effects switched on
+/// at `STRUCT`'s share of their expected values (default 1), their knobs added, on the
+/// weights of the start, then reweighed and polished; against the truth on the same rows.
+pub fn structural(c: &foreign::ForeignCase) {
+    let d = &c.estimation;
+    let te = eq_truth(c);
+    let share: f64 = std::env::var("STRUCT")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1.0);
+    let mut file = calibrate::with_measured_stiffness(&c.file).unwrap();
+    file.sample_period_s = d.sample_period_s;
+    let mv = d.max_abs_v();
+    let mut knobs = calibrate::default_knobs(&file, mv);
+    let mut start = calibrate::with_background_damping(&file, mv).unwrap();
+    knobs.push(calibrate::background_damping_knob(&file, mv));
+    for &(e, v) in &c.expected {
+        let x = c.expected_fitted(e, v);
+        // A ratio (stiction) scales from 1, the others from 0.
+        let x = if e == geared_servo::Effect::StictionRatio {
+            1.0 + share * (x - 1.0)
+        } else {
+            share * x
+        };
+        start.effects.set(e, x);
+        knobs.push(calibrate::knob(&file, Param::Effect(e), mv));
+    }
+    let t0 = Instant::now();
+    let (w0, _) = predictability::weigh(&start, d);
+    let f = calibrate::calibrate(&start, &knobs, std::slice::from_ref(&w0));
+    let (w1, _) = predictability::weigh(&f.params, d);
+    let g = calibrate::polish(&f.params, &knobs, std::slice::from_ref(&w1), 20);
+    let (w2, _) = predictability::weigh(&g.params, d);
+    println!(
+        "STRUCT {} x{share}: {:.4} on own rows (truth {:.4}, floor {:.4}) ({:.1}s) [{}] effects {:?}",
+        c.label(),
+        calibrate::nrmse(&g.params, &w2),
+        calibrate::nrmse(&te, &w2),
+        noise::floor_nrmse(noise::sigma(&d.y), &w2.weight, w2.norm),
+        t0.elapsed().as_secs_f64(),
+        fmt(&te, &g.params),
+        c.expected
+            .iter()
+            .map(|&(e, v)| format!(
+                "{e} {:.4e} (expected {:.4e})",
+                g.params.effects.get(e),
+                c.expected_fitted(e, v)
+            ))
+            .collect::<Vec<_>>()
+    );
+    for (name, ww) in [("start rows", &w0), ("fit rows", &w2)] {
+        let r = calibrate::robust(std::slice::from_ref(ww));
+        println!(
+            "  on the {name}: robust fit {:.4} truth {:.4}; plain fit {:.4} truth {:.4}; start robust {:.4}",
+            calibrate::cost(&g.params, &r).sqrt(),
+            calibrate::cost(&te, &r).sqrt(),
+            calibrate::nrmse(&g.params, ww),
+            calibrate::nrmse(&te, ww),
+            calibrate::cost(&start, &r).sqrt(),
+        );
+    }
+    if std::env::var("SEEDS").is_ok() {
+        let r0 = calibrate::robust(std::slice::from_ref(&w0));
+        for seed in 1..6 {
+            let h = calibrate::calibrate_seeded(&start, &knobs, std::slice::from_ref(&w0), seed);
+            println!(
+                "  seed {seed}: robust {:.4} (truth {:.4}) [{}] effects {:?}",
+                calibrate::cost(&h.params, &r0).sqrt(),
+                calibrate::cost(&te, &r0).sqrt(),
+                fmt(&te, &h.params),
+                c.expected
+                    .iter()
+                    .map(|&(e, _)| h.params.effects.get(e))
+                    .collect::<Vec<_>>()
+            );
+        }
+    }
+    if let Some(mult) = std::env::var("BUDGET")
+        .ok()
+        .and_then(|s| s.parse::<usize>().ok())
+    {
+        let r0 = calibrate::robust(std::slice::from_ref(&w0));
+        for seed in 0..3 {
+            let t1 = Instant::now();
+            let (cst, p) = calibrate::evolve_with(
+                &start,
+                &knobs,
+                &r0,
+                calibrate::POPULATION
+                    * if std::env::var("BIGPOP").is_ok() {
+                        2
+                    } else {
+                        1
+                    },
+                mult * calibrate::EVALS_PER_KNOB * knobs.len() / 2,
+                0.5,
+                seed,
+            );
+            let h = calibrate::levenberg_marquardt(&p, &knobs, &r0);
+            println!(
+                "  budget x{mult} seed {seed}: evolve {:.4}, +LM {:.4} (truth {:.4}) ({:.1}s) [{}] effects {:?}",
+                cst.sqrt(),
+                calibrate::cost(&h.params, &r0).sqrt(),
+                calibrate::cost(&te, &r0).sqrt(),
+                t1.elapsed().as_secs_f64(),
+                fmt(&te, &h.params),
+                c.expected.iter().map(|&(e, _)| h.params.effects.get(e)).collect::<Vec<_>>()
+            );
+        }
+    }
+    if std::env::var("PROFILE").is_ok() {
+        // The friction subspace searched alone from the fit (its inertias, stiffness and
+        // backlash held), then everything polished.
+        let r0 = calibrate::robust(std::slice::from_ref(&w0));
+        let fk: Vec<calibrate::Knob> = knobs
+            .iter()
+            .filter(|k| {
+                matches!(
+                    k.param,
+                    Param::Effect(_)
+                ) || k.name().contains("coulomb")
+            })
+            .cloned()
+            .collect();
+        for seed in 0..3 {
+            let t1 = Instant::now();
+            let (cst, p) = calibrate::evolve_with(
+                &g.params,
+                &fk,
+                &r0,
+                calibrate::POPULATION,
+                calibrate::EVALS_PER_KNOB * fk.len(),
+                0.5,
+                seed,
+            );
+            let h = calibrate::levenberg_marquardt(&p, &knobs, &r0);
+            println!(
+                "  profile seed {seed} ({} knobs): evolve {:.4}, +LM {:.4} (truth {:.4}, fit {:.4}) ({:.1}s) [{}] effects {:?}",
+                fk.len(),
+                cst.sqrt(),
+                calibrate::cost(&h.params, &r0).sqrt(),
+                calibrate::cost(&te, &r0).sqrt(),
+                calibrate::cost(&g.params, &r0).sqrt(),
+                t1.elapsed().as_secs_f64(),
+                fmt(&te, &h.params),
+                c.expected.iter().map(|&(e, _)| h.params.effects.get(e)).collect::<Vec<_>>()
+            );
+        }
+    }
+    if let Ok(which) = std::env::var("SCAN") {
+        // `SCAN=truth`: on the truth's predictable rows; otherwise on the start's.
+        let wt = predictability::weigh(&te, d).0;
+        let r0 = calibrate::robust(std::slice::from_ref(if which == "truth" { &wt } else { &w0 }));
+        for k in &knobs {
+            let line: Vec<String> = [0.5, 0.7, 0.85, 0.95, 1.0, 1.05, 1.15, 1.4, 2.0]
+                .iter()
+                .map(|f| {
+                    let mut q = te;
+                    let v = calibrate::get(&te, k.param);
+                    let v = if k.param == Param::Effect(geared_servo::Effect::StictionRatio) {
+                        1.0 + f * (v - 1.0)
+                    } else {
+                        f * v
+                    };
+                    calibrate::set(&mut q, k.param, v);
+                    format!("{f}:{:.4}", calibrate::cost(&q, &r0).sqrt())
+                })
+                .collect();
+            println!("  scan {}: {}", k.name(), line.join(" "));
+        }
+    }
+    let ft = calibrate::polish(&te, &knobs, std::slice::from_ref(&w2), 20);
+    println!(
+        "  polished from the truth on the fit's rows: {:.4} [{}] values {:?}",
+        ft.cost.sqrt(),
+        fmt(&te, &ft.params),
+        ft.values
+    );
 }
