@@ -215,6 +215,53 @@ fn main() {
             calibrate::nrmse(&out.final_fit.params, &wt)
         );
         with_expected(&c, &out);
+        {
+            // Materiality on the robust window loss: plain and robust NRMSE over their floors
+            // on the final's kept rows, for the final and the truth.
+            let rb = w.with_robust(Some(calibrate::Robust::new(
+                out.noise_sigma[0],
+                w.sample_period_s,
+            )));
+            let c0 = calibrate::Robust::SCALE * (1.0 / calibrate::Robust::SCALE).ln_1p();
+            let rf = |p: &geared_servo::ActuatorParams| {
+                (
+                    calibrate::nrmse(p, &w) / fl,
+                    (calibrate::cost(p, std::slice::from_ref(&rb)) / (c0 * fl * fl)).sqrt(),
+                )
+            };
+            if out.weights.len() > 1 {
+                let v = c.validation.with_weights(&out.weights[1]);
+                let sv = out
+                    .noise_sigma
+                    .get(1)
+                    .copied()
+                    .unwrap_or(out.noise_sigma[0]);
+                let vf = noise::floor_nrmse(sv, &v.weight, v.norm);
+                let vr = v.with_robust(Some(calibrate::Robust::new(sv, v.sample_period_s)));
+                let both = [rb.clone(), vr.clone()];
+                let floor2 = 0.5 * (fl * fl + vf * vf);
+                let plain2 = 0.5
+                    * (calibrate::nrmse(&out.final_fit.params, &w).powi(2)
+                        + calibrate::nrmse(&out.final_fit.params, &v).powi(2));
+                println!(
+                    "  ROBUST2 {}: validation plain {:.2}x robust {:.2}x; both plain {:.2}x robust {:.2}x",
+                    c.label(),
+                    calibrate::nrmse(&out.final_fit.params, &v) / vf,
+                    (calibrate::cost(&out.final_fit.params, std::slice::from_ref(&vr)) / (c0 * vf * vf)).sqrt(),
+                    (plain2 / floor2).sqrt(),
+                    (calibrate::cost(&out.final_fit.params, &both) / (c0 * floor2)).sqrt()
+                );
+            }
+            println!(
+                "  ROBUST {}: final plain {:.2}x robust {:.2}x; truth plain {:.2}x robust {:.2}x (unexplained {})",
+                c.label(),
+                rf(&out.final_fit.params).0,
+                rf(&out.final_fit.params).1,
+                rf(&te).0,
+                rf(&te).1,
+                out.unexplained
+            );
+        }
         if std::env::var("THIN").is_ok() {
             for (name, p) in [("truth", &te), ("base", &out.base.params)] {
                 thin(name, p, d);
@@ -944,12 +991,7 @@ pub fn structural(c: &foreign::ForeignCase) {
         let r0 = calibrate::robust(std::slice::from_ref(&w0));
         let fk: Vec<calibrate::Knob> = knobs
             .iter()
-            .filter(|k| {
-                matches!(
-                    k.param,
-                    Param::Effect(_)
-                ) || k.name().contains("coulomb")
-            })
+            .filter(|k| matches!(k.param, Param::Effect(_)) || k.name().contains("coulomb"))
             .cloned()
             .collect();
         for seed in 0..3 {
@@ -980,7 +1022,11 @@ pub fn structural(c: &foreign::ForeignCase) {
     if let Ok(which) = std::env::var("SCAN") {
         // `SCAN=truth`: on the truth's predictable rows; otherwise on the start's.
         let wt = predictability::weigh(&te, d).0;
-        let r0 = calibrate::robust(std::slice::from_ref(if which == "truth" { &wt } else { &w0 }));
+        let r0 = calibrate::robust(std::slice::from_ref(if which == "truth" {
+            &wt
+        } else {
+            &w0
+        }));
         for k in &knobs {
             let line: Vec<String> = [0.5, 0.7, 0.85, 0.95, 1.0, 1.05, 1.15, 1.4, 2.0]
                 .iter()
