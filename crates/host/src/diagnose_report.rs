@@ -133,7 +133,7 @@ impl Outcome {
         insert(
             &mut v,
             "noise",
-            json!({"sigma": self.noise_sigma, "floor_nrmse": self.floor_nrmse}),
+            json!({"sigma": self.noise_sigma, "floor_nrmse": self.floor_nrmse, "robust_floor_ratio": self.robust_floor_ratio}),
         );
         insert(
             &mut v,
@@ -343,6 +343,15 @@ impl Outcome {
                 } else {
                     ""
                 }
+            );
+        }
+        let material = crate::diagnose::Options::default().material_ratio;
+        let plain_ratio = self.final_fit.cost.sqrt() / self.floor_nrmse;
+        if !self.unexplained && plain_ratio > material {
+            let _ = writeln!(
+                s,
+                "residual above the floor in a few windows only: NRMSE {:.2}x the floor, {:.2}x under the robust window loss (at most {material}x): spans where the unit moves on another response than the model (rattle the predictability assessment kept), not a missing effect",
+                plain_ratio, self.robust_floor_ratio
             );
         }
         if self.unexplained {

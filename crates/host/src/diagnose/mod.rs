@@ -41,7 +41,7 @@ mod settle;
 
 pub use kin::{kin, separating_measurement, KIN};
 
-use crate::calibrate::{self, Data, Fit, Knob, Param};
+use crate::calibrate::{self, Data, Fit, Knob, Param, Robust};
 use crate::error::HostError;
 use crate::noise;
 use crate::residual::{self, Analysis};
@@ -170,8 +170,15 @@ pub struct Outcome {
     /// on it of the model calibrated without it, which left a material residual there.
     /// `validation` is then no longer held out.
     pub validation_in_fit: Option<(f64, f64)>,
-    /// A material residual remains above the noise floor and no candidate explains it.
+    /// A material residual remains above the noise floor, spread over the record (its
+    /// robust window loss too is above 1.2× what noise gives: `robust_floor_ratio`), and no
+    /// candidate explains it.
     pub unexplained: bool,
+    /// The final model's residual on its predictable rows under the robust window loss
+    /// ([`calibrate::Robust`]), RMS over what noise alone gives: near the plain NRMSE over
+    /// the floor when the residual is spread over the record, much lower when it sits in a
+    /// few windows.
+    pub robust_floor_ratio: f64,
     /// Candidate scores of the last search: (effect, predicted NRMSE, start value).
     pub last_scores: Vec<(Effect, f64, f64)>,
     /// The candidates of the last search that were refitted and not added, best first.
@@ -309,6 +316,37 @@ impl Ctx<'_> {
     /// A cost `c` on `data` is material: above [`Options::material_ratio`] times the floor.
     fn material(&self, c: f64, data: &[Data]) -> bool {
         c > self.opts.material_ratio.powi(2) * self.floor(data)
+    }
+
+    /// The residual of `p` on `data` as the robust window loss sees it (each record's windows
+    /// compressed as [`calibrate::Robust`] does, at the record's own noise level), over what
+    /// noise alone gives there: the RMS ratio. A residual spread over the record reads as its
+    /// plain ratio to the floor (a little less); one that sits in a few windows on another
+    /// branch of the motion (rows the predictability assessment kept under a model a few
+    /// percent off, where the unit rattles on another response) counts as some tens of noisy
+    /// windows each, not as hundreds.
+    fn robust_ratio(&self, p: &ActuatorParams, data: &[Data]) -> f64 {
+        let rdata: Vec<Data> = data
+            .iter()
+            .zip(&self.sigma)
+            .map(|(d, s)| d.with_robust(Some(Robust::new(*s, d.sample_period_s))))
+            .collect();
+        // Noise alone: u ≈ 1 in every window, c ln(1 + 1/c) of its energy kept.
+        let noise_share = Robust::SCALE * (1.0 / Robust::SCALE).ln_1p();
+        let noise = noise_share * self.floor(data);
+        if noise > 0.0 {
+            (calibrate::cost(p, &rdata) / noise).sqrt()
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// A residual of `p` on its rows `data` is material ([`Ctx::material`], cost `c`) and
+    /// systematic: its robust ratio ([`Ctx::robust_ratio`]) is above
+    /// [`Options::material_ratio`] as well. Only such a residual is *unexplained*: what
+    /// exceeds the floor in a few windows alone is rattle the assessment did not catch.
+    fn unexplained(&self, c: f64, p: &ActuatorParams, data: &[Data]) -> bool {
+        self.material(c, data) && self.robust_ratio(p, data) > self.opts.material_ratio
     }
 
     /// A fit of cost `c` on its own rows `data` is poor: above [`Options::poor_ratio`] times
@@ -574,7 +612,8 @@ fn diagnose_records(
     }
     let wfirst = wdata.first().unwrap_or(first);
     let (final_analysis, final_trace) = analyse(&cur.params, wfirst)?;
-    let unexplained = cx.material(cur.cost, &wdata);
+    let unexplained = cx.unexplained(cur.cost, &cur.params, &wdata);
+    let robust_ratio = cx.robust_ratio(&cur.params, &wdata);
     for st in &mut steps {
         st.partial = unexplained;
     }
@@ -614,6 +653,7 @@ fn diagnose_records(
         final_analysis,
         final_nrmse_all_rows: calibrate::nrmse(&cur.params, first),
         floor_nrmse: rms_nrmse(cx.floor(&wdata)),
+        robust_floor_ratio: robust_ratio,
         unpredictable_share: wdata.iter().map(Data::excluded_share).collect(),
         weights: wdata.iter().map(|d| d.weight.clone()).collect(),
         noise_sigma: cx.sigma,
@@ -625,4 +665,103 @@ fn diagnose_records(
         last_scores,
         rejected,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibrate::tests::data_of;
+    use geared_servo::REFERENCE;
+
+    /// Gaussian noise of standard deviation `s`, deterministic (xorshift, Box–Muller).
+    fn noise(n: usize, s: f64) -> Vec<f64> {
+        let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut u = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            ((x >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|_| s * (-2.0 * u().ln()).sqrt() * (std::f64::consts::TAU * u()).cos())
+            .collect()
+    }
+
+    /// The verdict's line ([`Ctx::unexplained`]): noise alone is explained, a residual spread
+    /// over the record is not, and one of the same plain size in a few windows is.
+    #[test]
+    fn a_residual_in_a_few_windows_is_not_unexplained() {
+        let h = 5e-4;
+        let mut p = REFERENCE;
+        p.sample_period_s = h;
+        // 2 s of a 7 V multisine (5, 23, 61 Hz).
+        let volts: Vec<f64> = (0..4000)
+            .map(|k| {
+                let t = k as f64 * h;
+                [5.0, 23.0, 61.0]
+                    .iter()
+                    .map(|f| 7.0 / 3.0 * (std::f64::consts::TAU * f * t).sin())
+                    .sum()
+            })
+            .collect();
+        let clean = data_of(volts, h, Some(&p));
+        let rms = (clean.y.iter().map(|v| v * v).sum::<f64>() / clean.y.len() as f64).sqrt();
+        let sigma = 0.02 * rms;
+        let e = noise(clean.y.len(), sigma);
+        let record = |extra: &dyn Fn(usize, f64) -> f64| -> Data {
+            let y: Vec<f64> = clean
+                .y
+                .iter()
+                .zip(&e)
+                .enumerate()
+                .map(|(k, (v, n))| v + n + extra(k, *v))
+                .collect();
+            let mut d = clean.clone();
+            d.y = y;
+            d.with_weights(&vec![1.0; d.y.len()])
+        };
+        let opts = Options::default();
+        let verdict = |d: &Data| {
+            let data = std::slice::from_ref(d);
+            let cx = Ctx {
+                nominal: p,
+                data,
+                sigma: vec![sigma],
+                validation: None,
+                val_sigma: None,
+                max_v: 7.0,
+                opts: &opts,
+            };
+            let c = calibrate::cost(&p, data);
+            let v = (
+                (c / cx.floor(data)).sqrt(),
+                cx.robust_ratio(&p, data),
+                cx.unexplained(c, &p, data),
+            );
+            eprintln!("plain {:.3}x robust {:.3}x unexplained {}", v.0, v.1, v.2);
+            v
+        };
+        // Noise alone: both ratios near 1.
+        let (plain, robust, unexplained) = verdict(&record(&|_, _| 0.0));
+        assert!((0.9..1.1).contains(&plain), "plain {plain}");
+        assert!((0.9..1.1).contains(&robust), "robust {robust}");
+        assert!(!unexplained);
+        // A tachometer gain error of 3 %: 1.8x the floor everywhere, systematic.
+        let (plain, robust, unexplained) = verdict(&record(&|_, v| 0.03 * v));
+        assert!(plain > 1.5, "plain {plain}");
+        assert!(robust > 1.4, "robust {robust}");
+        assert!(unexplained);
+        // A larger plain size in 1 % of the 25 ms windows (another branch of the motion).
+        let win = Robust::new(sigma, h).window;
+        let (plain, robust, unexplained) = verdict(&record(&|k, _| {
+            if (k / win) % 100 == 7 {
+                0.4 * rms
+            } else {
+                0.0
+            }
+        }));
+        assert!(plain > 1.5, "plain {plain}");
+        assert!(robust < 1.2, "robust {robust}");
+        assert!(!unexplained);
+    }
 }
