@@ -350,7 +350,7 @@ impl Outcome {
         if !self.unexplained && plain_ratio > material {
             let _ = writeln!(
                 s,
-                "residual above the floor in a few windows only: NRMSE {:.2}x the floor, {:.2}x under the robust window loss (at most {material}x): spans where the unit moves on another response than the model (rattle the predictability assessment kept), not a missing effect",
+                "residual above the floor in a few windows only: NRMSE {:.2}x the floor, {:.2}x under the robust window loss (at most {material}x): not spread over the record, so not claimed as a missing effect; most likely spans where the unit rattles on another response than the model (see time.svg)",
                 plain_ratio, self.robust_floor_ratio
             );
         }
