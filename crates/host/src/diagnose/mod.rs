@@ -688,7 +688,7 @@ mod tests {
     }
 
     /// The verdict's line ([`Ctx::unexplained`]): noise alone is explained, a residual spread
-    /// over the record is not, and one of the same plain size in a few windows is.
+    /// over the record is not, and one larger still (plainly) that sits in a few windows is.
     #[test]
     fn a_residual_in_a_few_windows_is_not_unexplained() {
         let h = 5e-4;
