@@ -222,7 +222,7 @@ fn main() {
                 out.noise_sigma[0],
                 w.sample_period_s,
             )));
-            let c0 = calibrate::Robust::SCALE * (1.0 / calibrate::Robust::SCALE).ln_1p();
+            let c0 = calibrate::Robust::noise_share();
             let rf = |p: &geared_servo::ActuatorParams| {
                 (
                     calibrate::nrmse(p, &w) / fl,

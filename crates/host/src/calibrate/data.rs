@@ -61,6 +61,11 @@ impl Robust {
     /// c: a window with 3 noise energies keeps 87 % of its weight, one with 1000 counts as 18.
     pub const SCALE: f64 = 3.0;
 
+    /// The share of its energy a window of noise alone keeps (u ≈ 1): c ln(1 + 1/c).
+    pub fn noise_share() -> f64 {
+        Robust::SCALE * (1.0 / Robust::SCALE).ln_1p()
+    }
+
     /// The loss for a record sampled every `h` s whose noise is `sigma`.
     pub fn new(sigma: f64, h: f64) -> Robust {
         Robust {

@@ -331,9 +331,7 @@ impl Ctx<'_> {
             .zip(&self.sigma)
             .map(|(d, s)| d.with_robust(Some(Robust::new(*s, d.sample_period_s))))
             .collect();
-        // Noise alone: u ≈ 1 in every window, c ln(1 + 1/c) of its energy kept.
-        let noise_share = Robust::SCALE * (1.0 / Robust::SCALE).ln_1p();
-        let noise = noise_share * self.floor(data);
+        let noise = Robust::noise_share() * self.floor(data);
         if noise > 0.0 {
             (calibrate::cost(p, &rdata) / noise).sqrt()
         } else {
@@ -341,12 +339,12 @@ impl Ctx<'_> {
         }
     }
 
-    /// A residual of `p` on its rows `data` is material ([`Ctx::material`], cost `c`) and
-    /// systematic: its robust ratio ([`Ctx::robust_ratio`]) is above
+    /// A residual of cost `c` on its rows `data` is material ([`Ctx::material`]) and
+    /// systematic: its robust ratio `robust` ([`Ctx::robust_ratio`]) is above
     /// [`Options::material_ratio`] as well. Only such a residual is *unexplained*: what
     /// exceeds the floor in a few windows alone is rattle the assessment did not catch.
-    fn unexplained(&self, c: f64, p: &ActuatorParams, data: &[Data]) -> bool {
-        self.material(c, data) && self.robust_ratio(p, data) > self.opts.material_ratio
+    fn unexplained(&self, c: f64, robust: f64, data: &[Data]) -> bool {
+        self.material(c, data) && robust > self.opts.material_ratio
     }
 
     /// A fit of cost `c` on its own rows `data` is poor: above [`Options::poor_ratio`] times
@@ -612,8 +610,8 @@ fn diagnose_records(
     }
     let wfirst = wdata.first().unwrap_or(first);
     let (final_analysis, final_trace) = analyse(&cur.params, wfirst)?;
-    let unexplained = cx.unexplained(cur.cost, &cur.params, &wdata);
     let robust_ratio = cx.robust_ratio(&cur.params, &wdata);
+    let unexplained = cx.unexplained(cur.cost, robust_ratio, &wdata);
     for st in &mut steps {
         st.partial = unexplained;
     }
@@ -733,10 +731,11 @@ mod tests {
                 opts: &opts,
             };
             let c = calibrate::cost(&p, data);
+            let robust = cx.robust_ratio(&p, data);
             let v = (
                 (c / cx.floor(data)).sqrt(),
-                cx.robust_ratio(&p, data),
-                cx.unexplained(c, &p, data),
+                robust,
+                cx.unexplained(c, robust, data),
             );
             eprintln!("plain {:.3}x robust {:.3}x unexplained {}", v.0, v.1, v.2);
             v
