@@ -2,7 +2,7 @@
 //! command itself (files in, plots and the calibrated parameter file out).
 
 use crate::calibrate::{self, Data, Fit, Knob};
-use crate::diagnose::Outcome;
+use crate::diagnose::{Outcome, ResidualKind};
 use crate::residual;
 use geared_servo::ActuatorParams;
 use serde_json::{json, Map, Value};
@@ -133,7 +133,7 @@ impl Outcome {
         insert(
             &mut v,
             "noise",
-            json!({"sigma": self.noise_sigma, "floor_nrmse": self.floor_nrmse, "robust_floor_ratio": self.robust_floor_ratio}),
+            json!({"sigma": self.noise_sigma, "floor_nrmse": self.floor_nrmse, "robust_floor_ratio": self.robust_floor_ratio, "residual": self.residual.name()}),
         );
         insert(
             &mut v,
@@ -345,9 +345,9 @@ impl Outcome {
                 }
             );
         }
-        let material = crate::diagnose::Options::default().material_ratio;
-        let plain_ratio = self.final_fit.cost.sqrt() / self.floor_nrmse;
-        if !self.unexplained && plain_ratio > material {
+        if self.residual == ResidualKind::FewWindows {
+            let material = self.material_ratio;
+            let plain_ratio = self.final_fit.cost.sqrt() / self.floor_nrmse;
             let _ = writeln!(
                 s,
                 "residual above the floor in a few windows only: NRMSE {:.2}x the floor, {:.2}x under the robust window loss (at most {material}x): not spread over the record, so not claimed as a missing effect; most likely spans where the unit rattles on another response than the model (see time.svg)",

@@ -143,6 +143,33 @@ pub struct Rejection {
     pub reason: String,
 }
 
+/// What the final residual is, against the noise floor of its predictable rows
+/// ([`Options::material_ratio`] being the limit of "near the floor").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResidualKind {
+    /// Within the limit of the floor: what is left is noise.
+    AtFloor,
+    /// Above the limit plainly, but not under the robust window loss: the excess sits in a
+    /// few windows (spans where the unit moves on another branch of the motion than the
+    /// model, rattle the predictability assessment kept), so it is not claimed as a missing
+    /// effect.
+    FewWindows,
+    /// Above the limit plainly and under the robust window loss: spread over the record.
+    /// With no candidate left to explain it, the diagnosis is *unexplained*.
+    Systematic,
+}
+
+impl ResidualKind {
+    /// Its name in `diagnose --json` (`noise.residual`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ResidualKind::AtFloor => "at_floor",
+            ResidualKind::FewWindows => "few_windows",
+            ResidualKind::Systematic => "systematic",
+        }
+    }
+}
+
 /// Everything `diagnose` found.
 #[derive(Clone, Debug)]
 pub struct Outcome {
@@ -179,6 +206,11 @@ pub struct Outcome {
     /// the floor when the residual is spread over the record, much lower when it sits in a
     /// few windows.
     pub robust_floor_ratio: f64,
+    /// What the final residual is (the verdict's two halves: the plain NRMSE and the robust
+    /// ratio, each against `material_ratio`).
+    pub residual: ResidualKind,
+    /// The limit over the floor the residual was judged by ([`Options::material_ratio`]).
+    pub material_ratio: f64,
     /// Candidate scores of the last search: (effect, predicted NRMSE, start value).
     pub last_scores: Vec<(Effect, f64, f64)>,
     /// The candidates of the last search that were refitted and not added, best first.
@@ -339,12 +371,19 @@ impl Ctx<'_> {
         }
     }
 
-    /// A residual of cost `c` on its rows `data` is material ([`Ctx::material`]) and
-    /// systematic: its robust ratio `robust` ([`Ctx::robust_ratio`]) is above
-    /// [`Options::material_ratio`] as well. Only such a residual is *unexplained*: what
-    /// exceeds the floor in a few windows alone is rattle the assessment did not catch.
-    fn unexplained(&self, c: f64, robust: f64, data: &[Data]) -> bool {
-        self.material(c, data) && robust > self.opts.material_ratio
+    /// What a residual of cost `c` on its rows `data` is: material ([`Ctx::material`]) and
+    /// systematic when its robust ratio `robust` ([`Ctx::robust_ratio`]) is above
+    /// [`Options::material_ratio`] as well. Only a systematic residual can be
+    /// *unexplained*: what exceeds the floor in a few windows alone is rattle the
+    /// assessment did not catch.
+    fn residual_kind(&self, c: f64, robust: f64, data: &[Data]) -> ResidualKind {
+        if !self.material(c, data) {
+            ResidualKind::AtFloor
+        } else if robust > self.opts.material_ratio {
+            ResidualKind::Systematic
+        } else {
+            ResidualKind::FewWindows
+        }
     }
 
     /// A fit of cost `c` on its own rows `data` is poor: above [`Options::poor_ratio`] times
@@ -611,7 +650,8 @@ fn diagnose_records(
     let wfirst = wdata.first().unwrap_or(first);
     let (final_analysis, final_trace) = analyse(&cur.params, wfirst)?;
     let robust_ratio = cx.robust_ratio(&cur.params, &wdata);
-    let unexplained = cx.unexplained(cur.cost, robust_ratio, &wdata);
+    let residual = cx.residual_kind(cur.cost, robust_ratio, &wdata);
+    let unexplained = residual == ResidualKind::Systematic;
     for st in &mut steps {
         st.partial = unexplained;
     }
@@ -652,6 +692,8 @@ fn diagnose_records(
         final_nrmse_all_rows: calibrate::nrmse(&cur.params, first),
         floor_nrmse: rms_nrmse(cx.floor(&wdata)),
         robust_floor_ratio: robust_ratio,
+        residual,
+        material_ratio: opts.material_ratio,
         unpredictable_share: wdata.iter().map(Data::excluded_share).collect(),
         weights: wdata.iter().map(|d| d.weight.clone()).collect(),
         noise_sigma: cx.sigma,
@@ -685,8 +727,9 @@ mod tests {
             .collect()
     }
 
-    /// The verdict's line ([`Ctx::unexplained`]): noise alone is explained, a residual spread
-    /// over the record is not, and one larger still (plainly) that sits in a few windows is.
+    /// The verdict's line ([`Ctx::residual_kind`]): noise alone is at the floor, a residual
+    /// spread over the record is systematic (unexplained), and one larger still (plainly)
+    /// that sits in a few windows is not.
     #[test]
     fn a_residual_in_a_few_windows_is_not_unexplained() {
         let h = 5e-4;
@@ -735,24 +778,24 @@ mod tests {
             let v = (
                 (c / cx.floor(data)).sqrt(),
                 robust,
-                cx.unexplained(c, robust, data),
+                cx.residual_kind(c, robust, data),
             );
-            eprintln!("plain {:.3}x robust {:.3}x unexplained {}", v.0, v.1, v.2);
+            eprintln!("plain {:.3}x robust {:.3}x {:?}", v.0, v.1, v.2);
             v
         };
         // Noise alone: both ratios near 1.
-        let (plain, robust, unexplained) = verdict(&record(&|_, _| 0.0));
+        let (plain, robust, kind) = verdict(&record(&|_, _| 0.0));
         assert!((0.9..1.1).contains(&plain), "plain {plain}");
         assert!((0.9..1.1).contains(&robust), "robust {robust}");
-        assert!(!unexplained);
+        assert_eq!(kind, ResidualKind::AtFloor);
         // A tachometer gain error of 3 %: 1.8x the floor everywhere, systematic.
-        let (plain, robust, unexplained) = verdict(&record(&|_, v| 0.03 * v));
+        let (plain, robust, kind) = verdict(&record(&|_, v| 0.03 * v));
         assert!(plain > 1.5, "plain {plain}");
         assert!(robust > 1.4, "robust {robust}");
-        assert!(unexplained);
+        assert_eq!(kind, ResidualKind::Systematic);
         // A larger plain size in 1 % of the 25 ms windows (another branch of the motion).
         let win = Robust::new(sigma, h).window;
-        let (plain, robust, unexplained) = verdict(&record(&|k, _| {
+        let (plain, robust, kind) = verdict(&record(&|k, _| {
             if (k / win) % 100 == 7 {
                 0.4 * rms
             } else {
@@ -761,6 +804,6 @@ mod tests {
         }));
         assert!(plain > 1.5, "plain {plain}");
         assert!(robust < 1.2, "robust {robust}");
-        assert!(!unexplained);
+        assert_eq!(kind, ResidualKind::FewWindows);
     }
 }
