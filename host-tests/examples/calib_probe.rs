@@ -287,6 +287,10 @@ fn main() {
             valley(&c, &out.final_fit, &w, &te);
             continue;
         }
+        if std::env::var("FINISH").is_ok() {
+            finish(&c, &out, &te);
+            continue;
+        }
         if std::env::var("QUICK").is_ok() {
             continue;
         }
@@ -1052,4 +1056,119 @@ pub fn structural(c: &foreign::ForeignCase) {
         fmt(&te, &ft.params),
         ft.values
     );
+}
+
+#[allow(dead_code)]
+/// [`diagnose`]'s settle, written out: `SETTLE_ROUNDS` rounds on the smooth rows (the
+/// first global when `global`), then the polish on the predictable rows.
+fn settle_like(
+    start: &ActuatorParams,
+    knobs: &[calibrate::Knob],
+    data: &[calibrate::Data],
+    global: bool,
+    seed: u64,
+) -> (calibrate::Fit, Vec<calibrate::Data>) {
+    let mut p = *start;
+    for round in 0..3 {
+        let w: Vec<calibrate::Data> = data
+            .iter()
+            .map(|d| predictability::weigh_smooth(&p, d).0)
+            .collect();
+        p = if round == 0 && global {
+            calibrate::calibrate_point(&p, knobs, &w, seed).0.params
+        } else {
+            let q = calibrate::refine(&p, knobs, &w);
+            calibrate::polish_point(&q, knobs, &calibrate::thinned(&w), 20).params
+        };
+    }
+    let w: Vec<calibrate::Data> = data
+        .iter()
+        .map(|d| predictability::weigh(&p, d).0)
+        .collect();
+    (calibrate::polish(&p, knobs, &w, 20), w)
+}
+
+/// `FINISH=1`: what a further settle of the final model on both records reaches (`NEEDLE=1`:
+/// and a small-step CMA-ES on the final's rows), each on its own rows, against the truth
+/// (exact: the unit itself) on the same rows; deviations against the unit in the file's
+/// constants.
+fn finish(
+    c: &foreign::ForeignCase,
+    out: &geared_servo_host::diagnose::Outcome,
+    _te: &ActuatorParams,
+) {
+    let data = vec![c.estimation.clone(), c.validation.clone()];
+    if out.weights.len() < 2 {
+        println!("  FINISH {}: no second pass", c.label());
+        return;
+    }
+    let mut truth = calibrate::with_measured_stiffness(&c.truth).unwrap();
+    truth.sample_period_s = c.estimation.sample_period_s;
+    let mut eq =
+        calibrate::with_measured_stiffness(&foreign::in_file_constants(&c.truth, &c.file)).unwrap();
+    eq.sample_period_s = c.estimation.sample_period_s;
+    let wf: Vec<calibrate::Data> = data
+        .iter()
+        .zip(&out.weights)
+        .map(|(d, w)| d.with_weights(w))
+        .collect();
+    let report = |name: &str, p: &ActuatorParams, own: &[calibrate::Data], secs: f64| {
+        let r0 = calibrate::nrmse(p, &own[0]) / calibrate::nrmse(&truth, &own[0]);
+        let r1 = calibrate::nrmse(p, &own[1]) / calibrate::nrmse(&truth, &own[1]);
+        println!(
+            "  FINISH {} {name:>10}: own {:.4}/{:.4} = {r0:.2}x/{r1:.2}x truth{}; final's rows {:.4}/{:.4} (truth {:.4}/{:.4}) ({secs:.1}s) [{}]",
+            c.label(),
+            calibrate::nrmse(p, &own[0]),
+            calibrate::nrmse(p, &own[1]),
+            if r0 > 1.2 { " OVER" } else { "" },
+            calibrate::nrmse(p, &wf[0]),
+            calibrate::nrmse(p, &wf[1]),
+            calibrate::nrmse(&truth, &wf[0]),
+            calibrate::nrmse(&truth, &wf[1]),
+            fmt(&eq, p)
+        );
+    };
+    report("final", &out.final_fit.params, &wf, 0.0);
+    let knobs = &out.final_fit.knobs;
+    let t = Instant::now();
+    let f = calibrate::polish(&eq, knobs, &wf, 20);
+    report("eqpol", &f.params, &wf, t.elapsed().as_secs_f64());
+    if std::env::var("NEEDLE").is_err() {
+        return;
+    }
+    let thin = std::env::var("NEEDLE_THIN").is_ok();
+    for step in [0.02, 0.05] {
+        for seed in 0..2 {
+            let t = Instant::now();
+            let rw = calibrate::robust(&wf);
+            let rows = if thin { calibrate::thinned(&rw) } else { rw };
+            let (_, q) = calibrate::evolve_with(
+                &out.final_fit.params,
+                knobs,
+                &rows,
+                16,
+                120 * knobs.len(),
+                step,
+                seed,
+            );
+            let f = calibrate::polish(&q, knobs, &wf, 20);
+            report(
+                &format!("n{step}/{seed}"),
+                &f.params,
+                &wf,
+                t.elapsed().as_secs_f64(),
+            );
+            let w2: Vec<calibrate::Data> = data
+                .iter()
+                .map(|d| predictability::weigh(&f.params, d).0)
+                .collect();
+            let g = calibrate::polish(&f.params, knobs, &w2, 20);
+            report(
+                &format!("n{step}/{seed}rw"),
+                &g.params,
+                &w2,
+                t.elapsed().as_secs_f64(),
+            );
+        }
+    }
 }

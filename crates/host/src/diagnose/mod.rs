@@ -284,18 +284,25 @@ pub fn diagnose(
     validation: Option<&Data>,
     opts: &Options,
 ) -> Result<Outcome, HostError> {
-    let out = diagnose_records(file_params, data, validation, opts, None)?;
+    let out = diagnose_records(
+        file_params,
+        data,
+        validation,
+        opts,
+        None,
+        validation.is_none(),
+    )?;
     let (Some(v), Some((_, after)), Some(v_floor)) =
         (validation, out.validation, out.validation_floor)
     else {
         return Ok(out);
     };
     if after <= opts.material_ratio * v_floor {
-        return Ok(out);
+        return finished(file_params, data, validation, opts, out);
     }
     let mut all = data.to_vec();
     all.push(v.clone());
-    let mut both = diagnose_records(file_params, &all, None, opts, Some(&out))?;
+    let mut both = diagnose_records(file_params, &all, None, opts, Some(&out), true)?;
     let vn = weigh_one(&both.nominal, v, opts.predictability);
     let vc = weigh_one(&both.final_fit.params, v, opts.predictability);
     both.validation = Some((
@@ -324,7 +331,31 @@ struct Ctx<'a> {
     opts: &'a Options,
 }
 
-impl Ctx<'_> {
+impl<'a> Ctx<'a> {
+    /// The context of a pass over `data` (with `validation` held out, when given) from the
+    /// file's parameters `file_params`.
+    fn new(
+        file_params: &ActuatorParams,
+        data: &'a [Data],
+        validation: Option<&'a Data>,
+        opts: &'a Options,
+    ) -> Result<Ctx<'a>, HostError> {
+        let first = data
+            .first()
+            .ok_or_else(|| HostError::input("no record to diagnose"))?;
+        let mut nominal = calibrate::with_measured_stiffness(file_params)?;
+        nominal.sample_period_s = first.sample_period_s;
+        Ok(Ctx {
+            nominal,
+            data,
+            sigma: data.iter().map(|d| noise::sigma(&d.y)).collect(),
+            validation,
+            val_sigma: validation.map(|v| noise::sigma(&v.y)),
+            max_v: data.iter().map(Data::max_abs_v).fold(0.0, f64::max),
+            opts,
+        })
+    }
+
     /// The records weighted by their predictability under `p`.
     fn weigh(&self, p: &ActuatorParams) -> Vec<Data> {
         weigh(p, self.data, self.opts.predictability)
@@ -415,26 +446,17 @@ fn diagnose_records(
     validation: Option<&Data>,
     opts: &Options,
     resume: Option<&Outcome>,
+    finish: bool,
 ) -> Result<Outcome, HostError> {
+    let cx = Ctx::new(file_params, data, validation, opts)?;
+    let (nominal, max_v) = (cx.nominal, cx.max_v);
     let first = data
         .first()
         .ok_or_else(|| HostError::input("no record to diagnose"))?;
-    let mut nominal = calibrate::with_measured_stiffness(file_params)?;
-    nominal.sample_period_s = first.sample_period_s;
-    let max_v = data.iter().map(Data::max_abs_v).fold(0.0, f64::max);
     let nominal_analysis = {
         let t = calibrate::simulate(&nominal, first)
             .ok_or_else(|| HostError::other("the file's parameters are invalid"))?;
         residual::analyse(&first.y, &t, &first.volts, first.sample_period_s)
-    };
-    let cx = Ctx {
-        nominal,
-        data,
-        sigma: data.iter().map(|d| noise::sigma(&d.y)).collect(),
-        validation,
-        val_sigma: validation.map(|v| noise::sigma(&v.y)),
-        max_v,
-        opts,
     };
 
     let mut knobs = match &opts.fit {
@@ -647,6 +669,102 @@ fn diagnose_records(
             wdata = r.own;
         }
     }
+    if finish {
+        if let Some((fit, w)) = fine_search(&cx, &cur, &wdata) {
+            adopt(&mut cur, fit);
+            wdata = w;
+        }
+    }
+    conclude(
+        &cx,
+        Found {
+            nominal_analysis,
+            base,
+            base_analysis,
+            steps,
+            cur,
+            wdata,
+            last_scores,
+            rejected,
+        },
+    )
+}
+
+/// What a pass found, before it is concluded ([`conclude`]).
+struct Found {
+    nominal_analysis: Analysis,
+    base: Fit,
+    base_analysis: Analysis,
+    steps: Vec<Step>,
+    /// The model found, and the records weighted by its predictability.
+    cur: Fit,
+    wdata: Vec<Data>,
+    last_scores: Vec<(Effect, f64, f64)>,
+    rejected: Vec<Rejection>,
+}
+
+/// The last step of a diagnosis: a search at the scale of the calibration's own precision on
+/// the rows the model is polished, judged and reported on ([`settle::fine_search`]), kept
+/// when it is better on the rows both keep ([`better_on_common`]). Returns the better fit
+/// with its own rows, or `None` when the model stands.
+fn fine_search(cx: &Ctx, cur: &Fit, wdata: &[Data]) -> Option<(Fit, Vec<Data>)> {
+    let found = settle::fine_search(cur, wdata, cx.data, cx.opts.predictability)?;
+    let (fit, w, better) = better_on_common((cur.clone(), wdata.to_vec()), found, cx.data);
+    better.then_some((fit, w))
+}
+
+/// [`diagnose`]'s outcome when the validation record leaves no material residual (no second
+/// pass): the first pass' outcome `out`, with its model finished ([`fine_search`]).
+fn finished(
+    file_params: &ActuatorParams,
+    data: &[Data],
+    validation: Option<&Data>,
+    opts: &Options,
+    out: Outcome,
+) -> Result<Outcome, HostError> {
+    let cx = Ctx::new(file_params, data, validation, opts)?;
+    let wdata: Vec<Data> = data
+        .iter()
+        .zip(&out.weights)
+        .map(|(d, w)| d.with_weights(w))
+        .collect();
+    let Some((fit, w)) = fine_search(&cx, &out.final_fit, &wdata) else {
+        return Ok(out);
+    };
+    let mut cur = out.final_fit;
+    adopt(&mut cur, fit);
+    conclude(
+        &cx,
+        Found {
+            nominal_analysis: out.nominal_analysis,
+            base: out.base,
+            base_analysis: out.base_analysis,
+            steps: out.steps,
+            cur,
+            wdata: w,
+            last_scores: out.last_scores,
+            rejected: out.rejected,
+        },
+    )
+}
+
+/// The outcome of a pass: the final analysis and verdict of the model found.
+fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
+    let Found {
+        nominal_analysis,
+        base,
+        base_analysis,
+        mut steps,
+        cur,
+        wdata,
+        last_scores,
+        rejected,
+    } = found;
+    let (nominal, opts) = (cx.nominal, cx.opts);
+    let first = cx
+        .data
+        .first()
+        .ok_or_else(|| HostError::input("no record to diagnose"))?;
     let wfirst = wdata.first().unwrap_or(first);
     let (final_analysis, final_trace) = analyse(&cur.params, wfirst)?;
     let robust_ratio = cx.robust_ratio(&cur.params, &wdata);
@@ -696,7 +814,7 @@ fn diagnose_records(
         material_ratio: opts.material_ratio,
         unpredictable_share: wdata.iter().map(Data::excluded_share).collect(),
         weights: wdata.iter().map(|d| d.weight.clone()).collect(),
-        noise_sigma: cx.sigma,
+        noise_sigma: cx.sigma.clone(),
         unpredictable_rms,
         final_fit: cur,
         validation,
