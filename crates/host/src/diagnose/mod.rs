@@ -31,8 +31,9 @@
 //! parameters already calibrated. The first of the class that also holds on held-out data —
 //! cross-validated segments of the record and, when given, the validation record — is added,
 //! reported with the others of its class and the measurement that would separate them.
-//! `unexplained` is true when a material residual remains above the floor on the predictable
-//! rows and no candidate explains it.
+//! Every diagnosis ends with a fine search on the rows the model is reported on
+//! (`settle::fine_search`). `unexplained` is true when a material residual remains above
+//! the floor on the predictable rows, spread over the record, and no candidate explains it.
 
 mod judge;
 mod kin;
