@@ -95,8 +95,10 @@ pub(super) fn settle_seeded(
 /// missed its own predictable rows of the estimation record by 1.84× and 1.60× the truth's
 /// NRMSE there, within 1.0–1.1× after this search. Two CMA-ES runs ([`calibrate::evolve_with`],
 /// a local search's members and budget, [`FINE_STEP`] of the exploration box) on the robust
-/// window loss of `own`, each polished there, weighted anew and polished on its rows; the
-/// better of the two on the rows both keep. `None` when neither moved.
+/// window loss of `own` (for a long stepped sine on every k-th burst as a global search sees
+/// it, [`calibrate::thinned`]; the suite's 8.8 s records whole), each polished on `own`,
+/// weighted anew and polished on its rows; the better of the two on the rows both keep.
+/// `None` when neither moved.
 pub(super) fn fine_search(
     cur: &Fit,
     own: &[Data],
@@ -107,7 +109,7 @@ pub(super) fn fine_search(
     if knobs.is_empty() {
         return None;
     }
-    let rows = calibrate::robust(own);
+    let rows = calibrate::thinned(&calibrate::robust(own));
     let (pop, per) = calibrate::LOCAL;
     let run = |seed: u64| -> Option<(Fit, Vec<Data>)> {
         let (_, q) = calibrate::evolve_with(
