@@ -1097,7 +1097,7 @@ fn finish(
     out: &geared_servo_host::diagnose::Outcome,
     _te: &ActuatorParams,
 ) {
-    let data = vec![c.estimation.clone(), c.validation.clone()];
+    let data = [c.estimation.clone(), c.validation.clone()];
     if out.weights.len() < 2 {
         println!("  FINISH {}: no second pass", c.label());
         return;
