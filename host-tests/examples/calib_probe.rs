@@ -1129,6 +1129,33 @@ fn finish(
         );
     };
     report("final", &out.final_fit.params, &wf, 0.0);
+    // Like with like: the rows both the final and the truth keep.
+    let both: Vec<calibrate::Data> = data
+        .iter()
+        .zip(&wf)
+        .map(|(d, f)| {
+            let t = predictability::weigh(&truth, d).0;
+            let w: Vec<f64> = f
+                .weight
+                .iter()
+                .zip(&t.weight)
+                .map(|(a, b)| a.min(*b))
+                .collect();
+            d.with_weights(&w)
+        })
+        .collect();
+    println!(
+        "  FINISH {} on the rows final and truth keep ({:.1} % / {:.1} % of the records): final {:.4}/{:.4}, truth {:.4}/{:.4}, ratio {:.2}x/{:.2}x",
+        c.label(),
+        100.0 * (1.0 - both[0].excluded_share()),
+        100.0 * (1.0 - both[1].excluded_share()),
+        calibrate::nrmse(&out.final_fit.params, &both[0]),
+        calibrate::nrmse(&out.final_fit.params, &both[1]),
+        calibrate::nrmse(&truth, &both[0]),
+        calibrate::nrmse(&truth, &both[1]),
+        calibrate::nrmse(&out.final_fit.params, &both[0]) / calibrate::nrmse(&truth, &both[0]),
+        calibrate::nrmse(&out.final_fit.params, &both[1]) / calibrate::nrmse(&truth, &both[1]),
+    );
     let knobs = &out.final_fit.knobs;
     let t = Instant::now();
     let f = calibrate::polish(&eq, knobs, &wf, 20);
