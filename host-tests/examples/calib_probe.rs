@@ -1058,36 +1058,6 @@ pub fn structural(c: &foreign::ForeignCase) {
     );
 }
 
-#[allow(dead_code)]
-/// [`diagnose`]'s settle, written out: `SETTLE_ROUNDS` rounds on the smooth rows (the
-/// first global when `global`), then the polish on the predictable rows.
-fn settle_like(
-    start: &ActuatorParams,
-    knobs: &[calibrate::Knob],
-    data: &[calibrate::Data],
-    global: bool,
-    seed: u64,
-) -> (calibrate::Fit, Vec<calibrate::Data>) {
-    let mut p = *start;
-    for round in 0..3 {
-        let w: Vec<calibrate::Data> = data
-            .iter()
-            .map(|d| predictability::weigh_smooth(&p, d).0)
-            .collect();
-        p = if round == 0 && global {
-            calibrate::calibrate_point(&p, knobs, &w, seed).0.params
-        } else {
-            let q = calibrate::refine(&p, knobs, &w);
-            calibrate::polish_point(&q, knobs, &calibrate::thinned(&w), 20).params
-        };
-    }
-    let w: Vec<calibrate::Data> = data
-        .iter()
-        .map(|d| predictability::weigh(&p, d).0)
-        .collect();
-    (calibrate::polish(&p, knobs, &w, 20), w)
-}
-
 /// `FINISH=1`: what a further settle of the final model on both records reaches (`NEEDLE=1`:
 /// and a small-step CMA-ES on the final's rows), each on its own rows, against the truth
 /// (exact: the unit itself) on the same rows; deviations against the unit in the file's
