@@ -178,6 +178,10 @@ fn fmt_steps(out: &Outcome) -> String {
                     .collect();
                 t.push_str(&format!(" ~[{}]", o.join(",")));
             }
+            if !s.told_apart.is_empty() {
+                let o: Vec<&str> = s.told_apart.iter().map(|r| r.effect.name()).collect();
+                t.push_str(&format!(" not[{}]", o.join(",")));
+            }
             if s.partial {
                 t.push_str(" partial");
             }

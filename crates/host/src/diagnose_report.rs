@@ -108,6 +108,7 @@ impl Outcome {
                 "indistinguishable_values": s.indistinguishable_from.iter().map(|(e, x)| json!({"effect": e.name(), "value": x, "unit": e.unit()})).collect::<Vec<_>>(),
                 "separate_by": s.separate_by,
                 "held_out_nrmse": {"without": s.held_out.0, "with": s.held_out.1},
+                "told_apart": s.told_apart.iter().map(|r| json!({"effect": r.effect.name(), "value": r.value, "unit": r.effect.unit(), "nrmse_after_refit": r.nrmse_after, "reason": r.reason})).collect::<Vec<_>>(),
                 "candidate_scores": s.scores.iter().map(|(n, c, x)| json!({"effect": n.name(), "predicted_nrmse": c, "start_value": x})).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
             "added_effects": names,
@@ -283,6 +284,16 @@ impl Outcome {
                     "  the record explains as well: {}; to separate them, {}",
                     alts.join(", "),
                     st.separate_by
+                );
+            }
+            for r in &st.told_apart {
+                let _ = writeln!(
+                    s,
+                    "  not {} = {:.4e} {}: {}",
+                    r.effect,
+                    r.value,
+                    r.effect.unit(),
+                    r.reason
                 );
             }
         }

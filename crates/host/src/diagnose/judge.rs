@@ -428,27 +428,33 @@ pub(super) fn class(judged: &[Judged], opts: &Options) -> Vec<usize> {
     class
 }
 
-/// The first of `class` that also holds on held-out data — the cross-validated segments of
-/// its rows and, when given, the validation record — with its held-out NRMSEs (without,
-/// with); those of the class tried before it are pushed to `rejected`.
+/// Which of `class` to add: the first that also holds on held-out data — the
+/// cross-validated segments of its rows and, when given, the validation record — unless a
+/// later one that holds too is materially better on the validation record (the record then
+/// tells them apart: a spring from gravity on a square wave's large angles). Returns its
+/// index with its held-out NRMSEs (without, with) and the members of the class the
+/// validation record told apart from it (no longer indistinguishable); those tried before
+/// the first are pushed to `rejected`.
 pub(super) fn accept(
     cx: &Ctx,
     cur: &Fit,
     judged: &[Judged],
     class: &[usize],
     rejected: &mut Vec<Rejection>,
-) -> Option<(usize, (f64, f64))> {
+) -> Option<Accepted> {
     let vw = cx.val_weighted(&cur.params);
+    let mut holding: Vec<(usize, (f64, f64), Option<Data>)> = Vec::new();
     for &i in class {
         let j = judged.get(i)?;
         let ho = held_out(cur, &j.fit, &j.common);
         let ho_ok = ho.1 < ho.0;
         // The validation record on the rows both models keep.
-        let vc = match (&vw, cx.val_weighted(&j.fit.params)) {
+        let jw = cx.val_weighted(&j.fit.params);
+        let vc = match (&vw, &jw) {
             (Some(a), Some(b)) => Some(common_rows(
                 std::slice::from_ref(a),
                 std::slice::from_ref(a),
-                std::slice::from_ref(&b),
+                std::slice::from_ref(b),
             )),
             _ => None,
         };
@@ -472,7 +478,11 @@ pub(super) fn accept(
             _ => true,
         };
         if ho_ok && val_ok {
-            return Some((i, ho));
+            holding.push((i, ho, jw));
+            continue;
+        }
+        if !holding.is_empty() {
+            continue;
         }
         rejected.push(Rejection {
             effect: j.effect,
@@ -488,7 +498,94 @@ pub(super) fn accept(
             },
         });
     }
-    None
+    let (first, rest) = holding.split_first()?;
+    let mut chosen = first;
+    // Only to a member as plausible (the prior still counts).
+    let plausible = |i: usize| judged.get(i).is_some_and(|j| j.implausibility <= 0.0);
+    for other in rest {
+        if (plausible(other.0) || !plausible(chosen.0))
+            && matches!(
+                val_order(cx, vw.as_ref(), judged, chosen, other),
+                Some((std::cmp::Ordering::Greater, _, _))
+            )
+        {
+            chosen = other;
+        }
+    }
+    // The members the final choice beats on the validation record.
+    let told_apart = holding
+        .iter()
+        .filter(|h| h.0 != chosen.0)
+        .filter_map(|h| {
+            let (ord, a, b) = val_order(cx, vw.as_ref(), judged, chosen, h)?;
+            let j = judged.get(h.0)?;
+            (ord == std::cmp::Ordering::Less).then(|| {
+                (
+                    h.0,
+                    Rejection {
+                        effect: j.effect,
+                        value: j.value,
+                        nrmse_after: rms_nrmse(j.fit.cost),
+                        reason: format!(
+                            "explains the estimation records as well, but the validation record tells them apart: NRMSE {b:.4} with it, {a:.4} with the effect added, on the rows both keep"
+                        ),
+                    },
+                )
+            })
+        })
+        .collect();
+    Some(Accepted {
+        index: chosen.0,
+        held_out: chosen.1,
+        told_apart,
+    })
+}
+
+/// The choice [`accept`] makes.
+pub(super) struct Accepted {
+    /// Its index into the judged candidates.
+    pub(super) index: usize,
+    /// Its held-out NRMSEs (without, with).
+    pub(super) held_out: (f64, f64),
+    /// Members of its class the validation record told apart from it (their indices, and
+    /// what they would have given).
+    pub(super) told_apart: Vec<(usize, Rejection)>,
+}
+
+/// How two candidates compare on the validation record, on the rows the current model and
+/// both keep: `Less` when `a` is materially better (`b` leaves at least
+/// [`Options::min_excess_share`] more of its error above the floor, and the difference earns
+/// more than the BIC threshold), `Greater` when `b` is, with their NRMSEs there (`a`'s,
+/// `b`'s); `None` when the record cannot tell them apart (or there is none).
+fn val_order(
+    cx: &Ctx,
+    cur_rows: Option<&Data>,
+    judged: &[Judged],
+    a: &(usize, (f64, f64), Option<Data>),
+    b: &(usize, (f64, f64), Option<Data>),
+) -> Option<(std::cmp::Ordering, f64, f64)> {
+    let (c, wa, wb) = (cur_rows?, a.2.as_ref()?, b.2.as_ref()?);
+    let (fa, fb) = (&judged.get(a.0)?.fit, &judged.get(b.0)?.fit);
+    let ab = common_rows(
+        std::slice::from_ref(c),
+        std::slice::from_ref(wa),
+        std::slice::from_ref(wb),
+    );
+    let v = common_rows(&ab, &ab, std::slice::from_ref(c));
+    let v = v.first()?;
+    let floor = noise::floor_nrmse(cx.val_sigma?, &v.weight, v.norm);
+    let (ca, cb) = (
+        calibrate::nrmse(&fa.params, v).powi(2),
+        calibrate::nrmse(&fb.params, v).powi(2),
+    );
+    let n_eff = effective_samples(&fa.params, std::slice::from_ref(v));
+    let (hi, lo, ord) = if ca < cb {
+        (cb, ca, std::cmp::Ordering::Less)
+    } else {
+        (ca, cb, std::cmp::Ordering::Greater)
+    };
+    let ev = Evidence::new(n_eff, lo, hi, floor * floor, cx.opts.min_excess_share);
+    (ev.earns(cx.opts.bic_threshold) && !ev.immaterial).then_some((ord, ca.sqrt(), cb.sqrt()))
 }
 
 /// An effect added earlier that the one just added made redundant: the model without it
@@ -561,6 +658,91 @@ pub(super) fn backward_step(
                 own,
                 why,
             });
+        }
+    }
+    None
+}
+
+/// A member of an added effect's class put in its place ([`swap_in_class`]).
+pub(super) struct Swap {
+    /// The step whose effect is replaced.
+    pub(super) step: usize,
+    /// The model with the member instead (plain cost on its own rows).
+    pub(super) fit: Fit,
+    /// The records weighted by that model's predictability.
+    pub(super) own: Vec<Data>,
+    /// The member.
+    pub(super) effect: Effect,
+    /// The effect it replaces, as a rejection (its value and why it goes).
+    pub(super) replaced: Rejection,
+}
+
+/// Once the validation record is in the fit (`diagnose`'s second pass), the records may
+/// tell apart the members of a class the first records could not (a spring from gravity on
+/// a square wave's large angles). Each member of an added effect's class is tried in its
+/// place — the effect set back to the file's value, the member at the value the class gave
+/// it, the rest refitted — and the first that fits the rows both models keep better by more
+/// than the BIC threshold and by a material share of the error above the floor, is not
+/// worse on its own rows, and lands inside its plausible range, replaces it. Mesh damping is not swapped (it is also the
+/// background).
+pub(super) fn swap_in_class(cx: &Ctx, cur: &Fit, wdata: &[Data], steps: &[Step]) -> Option<Swap> {
+    let opts = cx.opts;
+    for (si, st) in steps.iter().enumerate() {
+        if st.effect == Effect::MeshDamping {
+            continue;
+        }
+        let param = Param::Effect(st.effect);
+        for &(other, v) in &st.indistinguishable_from {
+            let oparam = Param::Effect(other);
+            if other == Effect::MeshDamping || cur.knobs.iter().any(|k| k.param == oparam) {
+                continue;
+            }
+            let mut q: ActuatorParams = cur.params;
+            calibrate::set(&mut q, param, calibrate::get(&cx.nominal, param));
+            calibrate::set(&mut q, oparam, v);
+            let mut ks: Vec<Knob> = cur
+                .knobs
+                .iter()
+                .filter(|k| k.param != param)
+                .cloned()
+                .collect();
+            ks.push(calibrate::knob(&cx.nominal, oparam, cx.max_v));
+            let fit = calibrate::polish(&q, &ks, wdata, 8);
+            let own = cx.weigh(&fit.params);
+            let common = common_rows(cx.data, wdata, &own);
+            let with_c = calibrate::cost(&fit.params, &common);
+            let without_c = calibrate::cost(&cur.params, &common);
+            let floor_c = floor_cost(&common, &cx.sigma);
+            let n_eff = effective_samples(&fit.params, &common);
+            let ev = Evidence::new(n_eff, with_c, without_c, floor_c, opts.min_excess_share);
+            let own_c = calibrate::cost(&fit.params, &own);
+            let plausible = implausibility(
+                other,
+                calibrate::get(&fit.params, oparam),
+                opts.plausibility_slack,
+            ) <= 0.0;
+            if plausible && ev.earns(opts.bic_threshold) && !ev.immaterial && own_c <= cur.cost {
+                let mut fit = fit;
+                fit.cost = own_c;
+                return Some(Swap {
+                    step: si,
+                    fit,
+                    own,
+                    effect: other,
+                    replaced: Rejection {
+                        effect: st.effect,
+                        value: calibrate::get(&cur.params, param),
+                        nrmse_after: rms_nrmse(cur.cost),
+                        reason: format!(
+                            "replaced by {other} once the validation record was fitted too: NRMSE {:.4} with it, {:.4} with {other} on the rows both keep (ΔBIC {:.1}, {:.0} % of the error above the noise floor)",
+                            rms_nrmse(without_c),
+                            rms_nrmse(with_c),
+                            ev.delta_bic,
+                            100.0 * ev.share
+                        ),
+                    },
+                });
+            }
         }
     }
     None
