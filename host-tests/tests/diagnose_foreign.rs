@@ -235,9 +235,9 @@ struct Row {
 // not make"). Run it with
 // `cargo test --release -p geared-servo-host-tests --test diagnose_foreign -- --ignored --nocapture`
 // (`GS_FOREIGN_CASES=tach_lag/0,pair/1` for a subset; `GS_FOREIGN_DRAWS=3..6` for draws the
-// method was never developed on: 46 of 48 there on 2026-11-27, two bars missed).
+// method was never developed on: 46 of 48 there on 2026-11-27, one bar missed).
 #[test]
-#[ignore = "issue 12 acceptance suite: 47/48 verdicts right, two bars missed (stiction_ratio/1, gravity_torque/1), 33 min, beyond CI's budget; run with --ignored"]
+#[ignore = "issue 12 acceptance suite: 47/48 verdicts right, one bar missed (stiction_ratio/1), 33 min, beyond CI's budget; run with --ignored"]
 fn diagnose_names_effects_in_records_of_the_independent_reference() {
     let t_all = Instant::now();
 
