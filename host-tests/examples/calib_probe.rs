@@ -690,13 +690,7 @@ pub fn judge(c: &foreign::ForeignCase) {
     }
     let (wt, _) = predictability::weigh(&te, d);
     let (ww, _) = predictability::weigh(&without, d);
-    let common: Vec<f64> = wt
-        .weight
-        .iter()
-        .zip(&ww.weight)
-        .map(|(a, b)| a.min(*b))
-        .collect();
-    let wc = d.with_weights(&common);
+    let wc = d.with_rows_both_keep(&wt, &ww);
     println!("JUDGE {}: truth on own {:.4} (kept {:.2}); without on own {:.4} (kept {:.2}); common (kept {:.2}): truth {:.4} without {:.4}",
         c.label(), calibrate::nrmse(&te, &wt), 1.0 - wt.excluded_share(), calibrate::nrmse(&without, &ww), 1.0 - ww.excluded_share(),
         1.0 - wc.excluded_share(), calibrate::nrmse(&te, &wc), calibrate::nrmse(&without, &wc));
@@ -1103,16 +1097,7 @@ fn finish(
     let both: Vec<calibrate::Data> = data
         .iter()
         .zip(&wf)
-        .map(|(d, f)| {
-            let t = predictability::weigh(&truth, d).0;
-            let w: Vec<f64> = f
-                .weight
-                .iter()
-                .zip(&t.weight)
-                .map(|(a, b)| a.min(*b))
-                .collect();
-            d.with_weights(&w)
-        })
+        .map(|(d, f)| d.with_rows_both_keep(f, &predictability::weigh(&truth, d).0))
         .collect();
     println!(
         "  FINISH {} on the rows final and truth keep ({:.1} % / {:.1} % of the records): final {:.4}/{:.4}, truth {:.4}/{:.4}, ratio {:.2}x/{:.2}x",

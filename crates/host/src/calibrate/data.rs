@@ -132,6 +132,18 @@ impl Data {
         }
     }
 
+    /// The same record weighted by the rows both `a` and `b` keep: each row's smaller
+    /// weight (two models' predictable rows of this record, to compare them like with like).
+    pub fn with_rows_both_keep(&self, a: &Data, b: &Data) -> Data {
+        let w: Vec<f64> = a
+            .weight
+            .iter()
+            .zip(&b.weight)
+            .map(|(p, q)| p.min(*q))
+            .collect();
+        self.with_weights(&w)
+    }
+
     /// The same record with row weights `w` (clamped to 0..=1; missing rows weigh 1) and the
     /// NRMSE denominator taken over them. Unchanged when every weight would be zero or the
     /// weighted output is constant: there would be nothing left to fit.

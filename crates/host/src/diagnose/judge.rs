@@ -451,14 +451,10 @@ pub(super) fn accept(
         // The validation record on the rows both models keep.
         let jw = cx.val_weighted(&j.fit.params);
         let vc = match (&vw, &jw) {
-            (Some(a), Some(b)) => Some(common_rows(
-                std::slice::from_ref(a),
-                std::slice::from_ref(a),
-                std::slice::from_ref(b),
-            )),
+            (Some(a), Some(b)) => Some(a.with_rows_both_keep(a, b)),
             _ => None,
         };
-        let vc = vc.as_ref().and_then(|v| v.first());
+        let vc = vc.as_ref();
         let val_floor = match (vc, cx.val_sigma) {
             (Some(v), Some(s)) => noise::floor_nrmse(s, &v.weight, v.norm),
             _ => 0.0,
@@ -566,13 +562,8 @@ fn val_order(
 ) -> Option<(std::cmp::Ordering, f64, f64)> {
     let (c, wa, wb) = (cur_rows?, a.2.as_ref()?, b.2.as_ref()?);
     let (fa, fb) = (&judged.get(a.0)?.fit, &judged.get(b.0)?.fit);
-    let ab = common_rows(
-        std::slice::from_ref(c),
-        std::slice::from_ref(wa),
-        std::slice::from_ref(wb),
-    );
-    let v = common_rows(&ab, &ab, std::slice::from_ref(c));
-    let v = v.first()?;
+    let ab = c.with_rows_both_keep(wa, wb);
+    let v = &ab.with_rows_both_keep(&ab, c);
     let floor = noise::floor_nrmse(cx.val_sigma?, &v.weight, v.norm);
     let (ca, cb) = (
         calibrate::nrmse(&fa.params, v).powi(2),
@@ -620,23 +611,8 @@ pub(super) fn backward_step(
         if st.effect == Effect::MeshDamping {
             continue;
         }
-        let param = Param::Effect(st.effect);
-        let ks: Vec<Knob> = cur
-            .knobs
-            .iter()
-            .filter(|k| k.param != param)
-            .cloned()
-            .collect();
-        let mut q: ActuatorParams = cur.params;
-        calibrate::set(&mut q, param, calibrate::get(&cx.nominal, param));
-        let without = calibrate::polish(&q, &ks, wdata, 8);
-        let own = cx.weigh(&without.params);
-        let common = common_rows(cx.data, wdata, &own);
-        let with_c = calibrate::cost(&cur.params, &common);
-        let without_c = calibrate::cost(&without.params, &common);
-        let floor_c = floor_cost(&common, &cx.sigma);
-        let n_eff = effective_samples(&cur.params, &common);
-        let ev = Evidence::new(n_eff, with_c, without_c, floor_c, opts.min_excess_share);
+        let (without, own, common) = refit_replacing(cx, cur, wdata, st.effect, None);
+        let (ev, _, _) = evidence_on(cx, &cur.params, &without.params, &common);
         if !ev.earns(opts.bic_threshold) || ev.immaterial {
             let why = if ev.immaterial {
                 format!(
@@ -683,38 +659,21 @@ pub(super) struct Swap {
 /// place — the effect set back to the file's value, the member at the value the class gave
 /// it, the rest refitted — and the first that fits the rows both models keep better by more
 /// than the BIC threshold and by a material share of the error above the floor, is not
-/// worse on its own rows, and lands inside its plausible range, replaces it. Mesh damping is not swapped (it is also the
-/// background).
+/// worse on its own rows, and lands inside its plausible range, replaces it. Mesh damping is
+/// not swapped (it is also the background).
 pub(super) fn swap_in_class(cx: &Ctx, cur: &Fit, wdata: &[Data], steps: &[Step]) -> Option<Swap> {
     let opts = cx.opts;
     for (si, st) in steps.iter().enumerate() {
         if st.effect == Effect::MeshDamping {
             continue;
         }
-        let param = Param::Effect(st.effect);
         for &(other, v) in &st.indistinguishable_from {
             let oparam = Param::Effect(other);
             if other == Effect::MeshDamping || cur.knobs.iter().any(|k| k.param == oparam) {
                 continue;
             }
-            let mut q: ActuatorParams = cur.params;
-            calibrate::set(&mut q, param, calibrate::get(&cx.nominal, param));
-            calibrate::set(&mut q, oparam, v);
-            let mut ks: Vec<Knob> = cur
-                .knobs
-                .iter()
-                .filter(|k| k.param != param)
-                .cloned()
-                .collect();
-            ks.push(calibrate::knob(&cx.nominal, oparam, cx.max_v));
-            let fit = calibrate::polish(&q, &ks, wdata, 8);
-            let own = cx.weigh(&fit.params);
-            let common = common_rows(cx.data, wdata, &own);
-            let with_c = calibrate::cost(&fit.params, &common);
-            let without_c = calibrate::cost(&cur.params, &common);
-            let floor_c = floor_cost(&common, &cx.sigma);
-            let n_eff = effective_samples(&fit.params, &common);
-            let ev = Evidence::new(n_eff, with_c, without_c, floor_c, opts.min_excess_share);
+            let (fit, own, common) = refit_replacing(cx, cur, wdata, st.effect, Some((other, v)));
+            let (ev, with_c, without_c) = evidence_on(cx, &fit.params, &cur.params, &common);
             let own_c = calibrate::cost(&fit.params, &own);
             let plausible = implausibility(
                 other,
@@ -731,7 +690,7 @@ pub(super) fn swap_in_class(cx: &Ctx, cur: &Fit, wdata: &[Data], steps: &[Step])
                     effect: other,
                     replaced: Rejection {
                         effect: st.effect,
-                        value: calibrate::get(&cur.params, param),
+                        value: cur.params.effects.get(st.effect),
                         nrmse_after: rms_nrmse(cur.cost),
                         reason: format!(
                             "replaced by {other} once the validation record was fitted too: NRMSE {:.4} with it, {:.4} with {other} on the rows both keep (ΔBIC {:.1}, {:.0} % of the error above the noise floor)",
@@ -746,4 +705,50 @@ pub(super) fn swap_in_class(cx: &Ctx, cur: &Fit, wdata: &[Data], steps: &[Step])
         }
     }
     None
+}
+
+/// `cur` with `effect` set back to the file's value and its knob dropped — and `instead`
+/// (an effect at a value, with a knob of its own) in its place, when given — polished on
+/// `wdata`; with the records weighted by that model's predictability, and the rows both it
+/// and `cur` keep.
+fn refit_replacing(
+    cx: &Ctx,
+    cur: &Fit,
+    wdata: &[Data],
+    effect: Effect,
+    instead: Option<(Effect, f64)>,
+) -> (Fit, Vec<Data>, Vec<Data>) {
+    let param = Param::Effect(effect);
+    let mut q: ActuatorParams = cur.params;
+    calibrate::set(&mut q, param, calibrate::get(&cx.nominal, param));
+    let mut ks: Vec<Knob> = cur
+        .knobs
+        .iter()
+        .filter(|k| k.param != param)
+        .cloned()
+        .collect();
+    if let Some((other, v)) = instead {
+        q.effects.set(other, v);
+        ks.push(calibrate::knob(&cx.nominal, Param::Effect(other), cx.max_v));
+    }
+    let fit = calibrate::polish(&q, &ks, wdata, 8);
+    let own = cx.weigh(&fit.params);
+    let common = common_rows(cx.data, wdata, &own);
+    (fit, own, common)
+}
+
+/// The evidence for the model `with` over the model `without` on the rows `common` (the
+/// effective sample count of `with`'s residual), with the two costs there.
+fn evidence_on(
+    cx: &Ctx,
+    with: &ActuatorParams,
+    without: &ActuatorParams,
+    common: &[Data],
+) -> (Evidence, f64, f64) {
+    let with_c = calibrate::cost(with, common);
+    let without_c = calibrate::cost(without, common);
+    let floor_c = floor_cost(common, &cx.sigma);
+    let n_eff = effective_samples(with, common);
+    let ev = Evidence::new(n_eff, with_c, without_c, floor_c, cx.opts.min_excess_share);
+    (ev, with_c, without_c)
 }

@@ -147,15 +147,7 @@ const FINE_STEP: f64 = 0.05;
 pub(super) fn common_rows(data: &[Data], a: &[Data], b: &[Data]) -> Vec<Data> {
     data.iter()
         .zip(a.iter().zip(b))
-        .map(|(d, (x, y))| {
-            let w: Vec<f64> = x
-                .weight
-                .iter()
-                .zip(&y.weight)
-                .map(|(p, q)| p.min(*q))
-                .collect();
-            d.with_weights(&w)
-        })
+        .map(|(d, (x, y))| d.with_rows_both_keep(x, y))
         .collect()
 }
 
