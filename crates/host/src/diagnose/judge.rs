@@ -651,6 +651,16 @@ pub(super) struct Swap {
     pub(super) effect: Effect,
     /// The effect it replaces, as a rejection (its value and why it goes).
     pub(super) replaced: Rejection,
+    /// The step's numbers for the member, against the model with neither it nor the effect
+    /// it replaces (refitted as the backward step refits): NRMSE before and after on the
+    /// rows both keep, ΔBIC there, and the held-out check ([`Step`]'s fields of those names).
+    pub(super) nrmse_before: f64,
+    /// See `nrmse_before`.
+    pub(super) nrmse_after: f64,
+    /// See `nrmse_before`.
+    pub(super) delta_bic: f64,
+    /// See `nrmse_before`.
+    pub(super) held_out: (f64, f64),
 }
 
 /// Once the validation record is in the fit (`diagnose`'s second pass), the records may
@@ -683,7 +693,17 @@ pub(super) fn swap_in_class(cx: &Ctx, cur: &Fit, wdata: &[Data], steps: &[Step])
             if plausible && ev.earns(opts.bic_threshold) && !ev.immaterial && own_c <= cur.cost {
                 let mut fit = fit;
                 fit.cost = own_c;
+                // The member's own evidence, as its step reports it: against the model
+                // without it (nor the effect it replaces).
+                let (without, _, common_w) = refit_replacing(cx, &fit, &own, other, None);
+                let (ev_w, with_w, without_w) =
+                    evidence_on(cx, &fit.params, &without.params, &common_w);
+                let held_out = held_out(&without, &fit, &common_w);
                 return Some(Swap {
+                    nrmse_before: rms_nrmse(without_w),
+                    nrmse_after: rms_nrmse(with_w),
+                    delta_bic: ev_w.delta_bic,
+                    held_out,
                     step: si,
                     fit,
                     own,

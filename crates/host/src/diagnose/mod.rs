@@ -535,6 +535,10 @@ fn diagnose_records(
                     .first()
                     .map(|(o, _)| separating_measurement(sw.effect, *o, &first.output))
                     .unwrap_or_default();
+                st.nrmse_before = sw.nrmse_before;
+                st.nrmse_after = sw.nrmse_after;
+                st.delta_bic = sw.delta_bic;
+                st.held_out = sw.held_out;
                 st.told_apart.push(sw.replaced);
             }
             adopt(&mut cur, sw.fit);
@@ -996,7 +1000,7 @@ mod tests {
             })
             .collect();
         let g = 0.09;
-        let verdict = |hidden: Effect| -> Option<(Effect, f64)> {
+        let verdict = |hidden: Effect| -> Option<(Effect, f64, judge::Swap)> {
             let mut truth = unit;
             truth.effects.set(hidden, g);
             let clean = data_of(volts.clone(), h, Some(&truth));
@@ -1040,14 +1044,31 @@ mod tests {
             let sw = judge::swap_in_class(&cx, &cur, &wdata, std::slice::from_ref(&step))?;
             let v = sw.fit.params.effects.get(sw.effect);
             eprintln!(
-                "{hidden}: swapped to {} = {v:.4}: {}",
-                sw.effect, sw.replaced.reason
+                "{hidden}: swapped to {} = {v:.4}: {}; its step: NRMSE {:.4} -> {:.4}, ΔBIC {:.0}, held out {:.4} -> {:.4}",
+                sw.effect,
+                sw.replaced.reason,
+                sw.nrmse_before,
+                sw.nrmse_after,
+                sw.delta_bic,
+                sw.held_out.0,
+                sw.held_out.1
             );
-            Some((sw.effect, v))
+            Some((sw.effect, v, sw))
         };
-        let (e, v) = verdict(Effect::GravityTorque).expect("gravity replaces the spring");
+        let (e, v, sw) = verdict(Effect::GravityTorque).expect("gravity replaces the spring");
         assert_eq!(e, Effect::GravityTorque);
         assert!((v / g - 1.0).abs() < 0.1, "gravity {v} for {g}");
+        // The step now reports the member's own evidence (against the model with neither
+        // it nor the spring), not the spring's: a hinge load of this size is the bulk of the
+        // error without it.
+        assert!(
+            sw.delta_bic < -10.0 && sw.nrmse_after < 0.5 * sw.nrmse_before,
+            "gravity's step: {} -> {}, ΔBIC {}",
+            sw.nrmse_before,
+            sw.nrmse_after,
+            sw.delta_bic
+        );
+        assert!(sw.held_out.1 < sw.held_out.0, "held out {:?}", sw.held_out);
         assert!(
             verdict(Effect::HingeStiffness).is_none(),
             "the spring stays"
