@@ -359,18 +359,7 @@ pub(super) fn judge(
         j.ratio = j.fit_c / ref_c;
         let ev = Evidence::new(j.n_eff, j.fit_c, ref_c, j.floor_c, opts.min_excess_share);
         j.delta_bic = ev.delta_bic;
-        // Nothing to explain where the model already follows the rows both keep to within
-        // the noise: with 10⁴ samples a parameter still earns a few units of BIC there by
-        // fitting the noise (clean/4 of the foreign suite: a stiction of 1.57 at 1.007×
-        // the floor, taking it to 0.94×).
-        let at_floor = j.cur_c <= opts.material_ratio.powi(2) * j.floor_c;
-        let statistical = if at_floor {
-            Err(format!(
-                "nothing material to explain: the model without it follows the rows both keep to {:.3}× the noise floor (material above {:.1}×)",
-                (j.cur_c / j.floor_c).sqrt(),
-                opts.material_ratio
-            ))
-        } else if !ev.earns(opts.bic_threshold) {
+        let statistical = if !ev.earns(opts.bic_threshold) {
             Err(format!(
                 "did not earn its parameter (ΔBIC {:.1}{})",
                 j.delta_bic,
