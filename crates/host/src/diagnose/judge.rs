@@ -4,7 +4,7 @@
 //! step that removes an effect a later one made redundant.
 
 use super::search::Refit;
-use super::settle::{common_rows, floor_cost};
+use super::settle::{common_rows, floor_cost, floor_cost_sd};
 use super::{rms_nrmse, Ctx, Options, Rejection, Step};
 use crate::calibrate::{self, Data, Fit, Knob, Param, Point};
 use crate::noise;
@@ -127,6 +127,8 @@ pub(super) struct Judged {
     fit_c: f64,
     /// The noise floor's cost there.
     floor_c: f64,
+    /// Its standard deviation from estimating the noise levels ([`floor_cost_sd`]).
+    floor_sd: f64,
     /// The candidate's refit with the effect switched back to the current model's value
     /// (a point of the model without it), cost there.
     ablated_c: f64,
@@ -261,6 +263,7 @@ pub(super) fn judge(
             continue;
         };
         let floor_c = floor_cost(&common, &cx.sigma);
+        let floor_sd = floor_cost_sd(&common, &cx.sigma);
         let value = fit.values.last().copied().unwrap_or(f64::NAN);
         // The samples' effective number is that of the noise, so it is taken from the
         // candidate's residual: the current one is correlated by the very structure the
@@ -330,6 +333,7 @@ pub(super) fn judge(
             cur_c,
             fit_c,
             floor_c,
+            floor_sd,
             ablated_c,
             within_background: within_background == Some(true),
             common,
@@ -359,7 +363,12 @@ pub(super) fn judge(
         j.ratio = j.fit_c / ref_c;
         let ev = Evidence::new(j.n_eff, j.fit_c, ref_c, j.floor_c, opts.min_excess_share);
         j.delta_bic = ev.delta_bic;
-        let statistical = if !ev.earns(opts.bic_threshold) {
+        let statistical = if let Some(z) = at_floor(j) {
+            Err(format!(
+                "nothing to explain: the model without it follows the rows both keep to {:.3}× the noise floor, within the floor's own uncertainty ({z:.1} standard deviations; {FLOOR_Z} needed)",
+                (j.cur_c / j.floor_c).sqrt(),
+            ))
+        } else if !ev.earns(opts.bic_threshold) {
             Err(format!(
                 "did not earn its parameter (ΔBIC {:.1}{})",
                 j.delta_bic,
@@ -391,6 +400,23 @@ pub(super) fn judge(
     }
     judged.sort_by(|a, b| a.ratio.total_cmp(&b.ratio));
     judged
+}
+
+/// Standard deviations of the floor's uncertainty by which the current model's cost must
+/// exceed the floor for a candidate to have something to explain.
+const FLOOR_Z: f64 = 2.0;
+
+/// Where the current model's cost on the rows a candidate is judged on lies within
+/// [`FLOOR_Z`] standard deviations of the noise floor's there, how many (`None` above). The
+/// spread is that of the floor as estimated from the records ([`floor_cost_sd`]) and that
+/// of the residual's own mean square (2 / n_eff, relative). There the model leaves nothing
+/// to explain: with 10⁴ samples a parameter still earns a few units of BIC by fitting the
+/// noise (clean/4 of the foreign suite: a stiction of 1.57 at 1.007× the floor, taking it
+/// to 0.94×).
+fn at_floor(j: &Judged) -> Option<f64> {
+    let rel = (2.0 / j.n_eff + (j.floor_sd / j.floor_c).powi(2)).sqrt();
+    let z = (j.cur_c / j.floor_c - 1.0) / rel;
+    (z.is_finite() && z <= FLOOR_Z).then_some(z)
 }
 
 /// The class of admissible explanations the data cannot tell from the best one (indices

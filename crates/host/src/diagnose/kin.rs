@@ -6,7 +6,7 @@ use geared_servo::Effect;
 /// with what would separate them: the one list the search and the report use. When one of
 /// a pair is among the candidates refitted, so is the other, so that a tie is reported as a
 /// tie, not decided by which of the two the projection happened to rank higher.
-pub const KIN: [(Effect, Effect, &str); 9] = [
+pub const KIN: [(Effect, Effect, &str); 10] = [
     (
         Effect::TachGain,
         Effect::MotorViscous,
@@ -51,6 +51,11 @@ pub const KIN: [(Effect, Effect, &str); 9] = [
         Effect::VoltageLimit,
         Effect::TachGain,
         "records at two amplitudes (saturation depends on the amplitude, a delay or a gain error does not)",
+    ),
+    (
+        Effect::StictionRatio,
+        Effect::DriveDeadband,
+        "log the armature current (a dead band cuts it off around zero voltage, stiction does not), or a slow voltage ramp through zero (the dead band holds the motor at the voltage's reversal, stiction at the speed's)",
     ),
 ];
 

@@ -19,8 +19,11 @@
 //!
 //! Tracing: each candidate effect the model does not have yet is scored by a linearised
 //! projection of the residual; the best few (every one when the fit is poor) are refitted
-//! with the default set by Levenberg–Marquardt. A refit is *admissible* when it earns its
-//! parameter by the Bayesian information criterion (effective sample count n (1 − ρ₁)/(1 + ρ₁),
+//! with the default set by Levenberg–Marquardt. A refit is *admissible* when the current
+//! model leaves something to explain on the rows both it and the refit keep (its cost there
+//! more than two standard deviations of the floor's uncertainty above the noise floor:
+//! `judge::at_floor`), earns its parameter by the Bayesian information criterion
+//! (effective sample count n (1 − ρ₁)/(1 + ρ₁),
 //! ρ₁ the residual's lag-1 autocorrelation), explains at least [`Options::min_excess_share`]
 //! of the cost above the floor (both measured against the best point of the model without a
 //! new effect that any candidate's refit reached when its effect is switched off again), and

@@ -170,6 +170,24 @@ pub(super) fn better_on_common(
     }
 }
 
+/// The standard deviation of [`floor_cost`] that comes from estimating each record's noise
+/// level from the record ([`noise::sigma2_rel_sd`]).
+pub(super) fn floor_cost_sd(data: &[Data], sigma: &[f64]) -> f64 {
+    data.iter()
+        .zip(sigma)
+        .map(|(d, s)| {
+            let c = noise::floor_nrmse(*s, &d.weight, d.norm).powi(2);
+            if c > 0.0 {
+                (c * noise::sigma2_rel_sd(d.y.len())).powi(2)
+            } else {
+                0.0
+            }
+        })
+        .sum::<f64>()
+        .sqrt()
+        / data.len().max(1) as f64
+}
+
 /// Rounds of [`settle`] on the smooth rows: measured on the foreign suite's clean units,
 /// the first (global) round lands within a few percent and the rows it keeps still include
 /// some that are rough at the truth; two more rounds bring the inertias and the stiffness
