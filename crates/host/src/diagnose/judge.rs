@@ -363,7 +363,7 @@ pub(super) fn judge(
         j.ratio = j.fit_c / ref_c;
         let ev = Evidence::new(j.n_eff, j.fit_c, ref_c, j.floor_c, opts.min_excess_share);
         j.delta_bic = ev.delta_bic;
-        let statistical = if let Some(z) = at_floor(j) {
+        let statistical = if let Some(z) = at_floor(j.cur_c, j.floor_c, j.floor_sd, j.n_eff) {
             Err(format!(
                 "nothing to explain: the model without it follows the rows both keep to {:.3}× the noise floor, within the floor's own uncertainty ({z:.1} standard deviations; {FLOOR_Z} needed)",
                 (j.cur_c / j.floor_c).sqrt(),
@@ -413,9 +413,16 @@ const FLOOR_Z: f64 = 2.0;
 /// to explain: with 10⁴ samples a parameter still earns a few units of BIC by fitting the
 /// noise (clean/4 of the foreign suite: a stiction of 1.57 at 1.007× the floor, taking it
 /// to 0.94×).
-fn at_floor(j: &Judged) -> Option<f64> {
-    let rel = (2.0 / j.n_eff + (j.floor_sd / j.floor_c).powi(2)).sqrt();
-    let z = (j.cur_c / j.floor_c - 1.0) / rel;
+/// Costs are mean squares (NRMSE²) on the same rows: the current model's `cur_c`, the
+/// floor's `floor_c` with standard deviation `floor_sd`; `n_eff` effective samples. Where
+/// the spread cannot be stated (no floor, a record too short to estimate one) nothing is
+/// called at the floor.
+fn at_floor(cur_c: f64, floor_c: f64, floor_sd: f64, n_eff: f64) -> Option<f64> {
+    let rel = (2.0 / n_eff + (floor_sd / floor_c).powi(2)).sqrt();
+    if !(floor_c > 0.0 && rel.is_finite() && rel > 0.0) {
+        return None;
+    }
+    let z = (cur_c / floor_c - 1.0) / rel;
     (z.is_finite() && z <= FLOOR_Z).then_some(z)
 }
 
@@ -797,4 +804,34 @@ fn evidence_on(
     let n_eff = effective_samples(with, common);
     let ev = Evidence::new(n_eff, with_c, without_c, floor_c, cx.opts.min_excess_share);
     (ev, with_c, without_c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The cases that set the rule (foreign suite, rows both keep; a 17 600-row record's
+    /// floor is known to 0.48/√274 = 2.9 % in σ², n_eff about 10⁴).
+    #[test]
+    fn a_model_at_the_floor_leaves_nothing_to_explain() {
+        let floor = 0.02_f64.powi(2);
+        let sd = floor * noise::sigma2_rel_sd(17_600);
+        let ratio = |r: f64| at_floor((r * 0.02).powi(2), floor, sd, 1e4);
+        // clean/4's spurious stiction started at 1.007× the floor, pair/2's spurious third
+        // effect at 0.905×: nothing to explain.
+        assert!(ratio(1.007).is_some());
+        assert!(ratio(0.905).is_some());
+        // The quiet-bench stiction of diagnose_bench_effects starts at 1.173×, every first
+        // effect of the foreign suite at 1.239× or more: something to explain.
+        assert!(ratio(1.173).is_none());
+        assert!(ratio(1.239).is_none());
+        // The line: two standard deviations, about 1.03× in NRMSE here.
+        let line = (1.0 + FLOOR_Z * (2e-4 + (sd / floor).powi(2)).sqrt()).sqrt();
+        assert!(ratio(line - 1e-6).is_some() && ratio(line + 1e-6).is_none());
+        assert!((1.02..1.04).contains(&line), "{line}");
+        // No floor, or none whose spread is known: never at the floor.
+        assert!(at_floor(1e-4, 0.0, 0.0, 1e4).is_none());
+        assert!(at_floor(1e-4, floor, f64::INFINITY, 1e4).is_none());
+        assert!(at_floor(f64::NAN, floor, sd, 1e4).is_none());
+    }
 }
