@@ -413,6 +413,7 @@ const FLOOR_Z: f64 = 2.0;
 /// to explain: with 10⁴ samples a parameter still earns a few units of BIC by fitting the
 /// noise (clean/4 of the foreign suite: a stiction of 1.57 at 1.007× the floor, taking it
 /// to 0.94×).
+///
 /// Costs are mean squares (NRMSE²) on the same rows: the current model's `cur_c`, the
 /// floor's `floor_c` with standard deviation `floor_sd`; `n_eff` effective samples. Where
 /// the spread cannot be stated (no floor, a record too short to estimate one) nothing is

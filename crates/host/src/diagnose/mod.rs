@@ -23,8 +23,8 @@
 //! model leaves something to explain on the rows both it and the refit keep (its cost there
 //! more than two standard deviations of the floor's uncertainty above the noise floor:
 //! `judge::at_floor`), earns its parameter by the Bayesian information criterion
-//! (effective sample count n (1 − ρ₁)/(1 + ρ₁),
-//! ρ₁ the residual's lag-1 autocorrelation), explains at least [`Options::min_excess_share`]
+//! (effective sample count n (1 − ρ₁)/(1 + ρ₁), ρ₁ the residual's lag-1 autocorrelation),
+//! explains at least [`Options::min_excess_share`]
 //! of the cost above the floor (both measured against the best point of the model without a
 //! new effect that any candidate's refit reached when its effect is switched off again), and
 //! its value is plausible (within the effect's plausible range

@@ -170,24 +170,6 @@ pub(super) fn better_on_common(
     }
 }
 
-/// The standard deviation of [`floor_cost`] that comes from estimating each record's noise
-/// level from the record ([`noise::sigma2_rel_sd`]).
-pub(super) fn floor_cost_sd(data: &[Data], sigma: &[f64]) -> f64 {
-    data.iter()
-        .zip(sigma)
-        .map(|(d, s)| {
-            let c = noise::floor_nrmse(*s, &d.weight, d.norm).powi(2);
-            if c > 0.0 {
-                (c * noise::sigma2_rel_sd(d.y.len())).powi(2)
-            } else {
-                0.0
-            }
-        })
-        .sum::<f64>()
-        .sqrt()
-        / data.len().max(1) as f64
-}
-
 /// Rounds of [`settle`] on the smooth rows: measured on the foreign suite's clean units,
 /// the first (global) round lands within a few percent and the rows it keeps still include
 /// some that are rough at the truth; two more rounds bring the inertias and the stiffness
@@ -199,7 +181,30 @@ const SETTLE_ROUNDS: usize = 3;
 pub(super) fn floor_cost(data: &[Data], sigma: &[f64]) -> f64 {
     data.iter()
         .zip(sigma)
-        .map(|(d, s)| noise::floor_nrmse(*s, &d.weight, d.norm).powi(2))
+        .map(|(d, s)| record_floor_cost(d, *s))
         .sum::<f64>()
         / data.len().max(1) as f64
+}
+
+/// The standard deviation of [`floor_cost`] that comes from estimating each record's noise
+/// level from the record ([`noise::sigma2_rel_sd`]).
+pub(super) fn floor_cost_sd(data: &[Data], sigma: &[f64]) -> f64 {
+    data.iter()
+        .zip(sigma)
+        .map(|(d, s)| {
+            let c = record_floor_cost(d, *s);
+            if c > 0.0 {
+                (c * noise::sigma2_rel_sd(d.y.len())).powi(2)
+            } else {
+                0.0
+            }
+        })
+        .sum::<f64>()
+        .sqrt()
+        / data.len().max(1) as f64
+}
+
+/// One weighted record's noise-only NRMSE² at noise level `sigma`.
+fn record_floor_cost(d: &Data, sigma: f64) -> f64 {
+    noise::floor_nrmse(sigma, &d.weight, d.norm).powi(2)
 }
