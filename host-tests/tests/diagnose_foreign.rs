@@ -646,6 +646,45 @@ fn the_unit_in_the_files_constants_is_exact() {
     }
 }
 
+/// The prior where the validation record cannot decide (`judge::with_plausible_kin`): on
+/// motor_viscous/6 of the fresh draws the stepped sine alone prefers a tachometer gain error
+/// of a third, with every mechanical quantity rescaled to match (ΔBIC −5080 against −2814 for
+/// the motor friction that is there), a value outside the gain error's plausible range; the
+/// validation record does not prefer it, so the plausible motor friction is named, within
+/// [`VALUE_TOL`], and the gain error is reported as what it is: a better fit of the estimation
+/// record at an implausible value, told apart by the validation record. Records of the
+/// independent reference integrator, every parameter perturbed, rattle included.
+#[test]
+fn an_implausible_tachometer_gain_gives_way_to_the_friction_that_is_there() {
+    let c = foreign::case(Kind::Single(Effect::MotorViscous), 6).unwrap();
+    let out = diagnose(
+        &c.file,
+        std::slice::from_ref(&c.estimation),
+        Some(&c.validation),
+        &Options::default(),
+    )
+    .unwrap();
+    eprintln!("{}: {}", c.label(), fmt_steps(&out));
+    assert!(!out.unexplained);
+    let [step] = out.steps.as_slice() else {
+        panic!("one step expected: {}", fmt_steps(&out));
+    };
+    assert_eq!(step.effect, Effect::MotorViscous);
+    let (_, v) = c.expected[0];
+    let want = c.expected_fitted(Effect::MotorViscous, v);
+    assert!(
+        (step.value / want - 1.0).abs() <= VALUE_TOL,
+        "{} for {want}",
+        step.value
+    );
+    let gain = step
+        .told_apart
+        .iter()
+        .find(|r| r.effect == Effect::TachGain)
+        .expect("the tachometer gain error reported as told apart");
+    assert!(gain.value.abs() > Effect::TachGain.plausible_range().1);
+}
+
 #[test]
 fn the_suite_is_what_the_issue_asks_for() {
     // Cheap structural checks of the generator (no diagnosis): the file, the truth's

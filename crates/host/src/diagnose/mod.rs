@@ -31,7 +31,9 @@
 //! of the registry, widened by [`Options::plausibility_slack`]). Admissible refits whose costs
 //! the data cannot tell apart (within the BIC threshold) form one class, ordered by physical
 //! likelihood: a value inside the plausible range first, then the least change of the
-//! parameters already calibrated. The first of the class that also holds on held-out data —
+//! parameters already calibrated; when every member's value is implausible, a plausible kin
+//! that the validation record does not show worse joins it, first (`judge::with_plausible_kin`).
+//! The first of the class that also holds on held-out data —
 //! cross-validated segments of the record and, when given, the validation record — is added,
 //! reported with the others of its class and the measurement that would separate them.
 //! Every diagnosis ends with a fine search on the rows the model is reported on
@@ -619,7 +621,7 @@ fn diagnose_records(
         search::kin_starts(&cx, &cur, &mut local, &rows);
         let alts = search::structural_refits(&cx, &local, cur_poor, &from_file);
         let judged = judge::judge(&cx, &cur, &wdata, local, alts, &cur_bounds);
-        let class = judge::class(&judged, opts);
+        let class = judge::with_plausible_kin(&cx, &cur, &judged, judge::class(&judged, opts));
         let Some(acc) = judge::accept(&cx, &cur, &judged, &class, &mut rejected) else {
             for j in judged.iter().filter(|j| j.admissible.is_err()) {
                 rejected.push(Rejection {
