@@ -431,11 +431,7 @@ fn at_floor(cur_c: f64, floor_c: f64, floor_sd: f64, n_eff: f64) -> Option<f64> 
 /// The class of admissible explanations the data cannot tell from the best one (indices
 /// into `judged`), likelier first.
 pub(super) fn class(judged: &[Judged], opts: &Options) -> Vec<usize> {
-    let (best_adm, n_eff) = judged
-        .iter()
-        .filter(|j| j.admissible.is_ok())
-        .map(|j| (j.ratio, j.n_eff))
-        .fold((f64::INFINITY, 2.0), |b, x| if x.0 < b.0 { x } else { b });
+    let (best_adm, n_eff) = best_admissible(judged);
     // Indistinguishable: within the BIC threshold of the best, or explaining at least
     // EQUIVALENT_SHARE of what the best explains above the current fit (with 10⁴ samples
     // a difference can be significant and still immaterial: a spring and gravity at
@@ -453,15 +449,21 @@ pub(super) fn class(judged: &[Judged], opts: &Options) -> Vec<usize> {
     class
 }
 
+/// The best admissible refit's cost ratio and its effective sample count (∞ and 2 when
+/// none is admissible).
+fn best_admissible(judged: &[Judged]) -> (f64, f64) {
+    judged
+        .iter()
+        .filter(|j| j.admissible.is_ok())
+        .map(|j| (j.ratio, j.n_eff))
+        .fold((f64::INFINITY, 2.0), |b, x| if x.0 < b.0 { x } else { b })
+}
+
 /// Orders `class` (indices into `judged`) likelier first: a value inside its plausible
 /// range, then the statistically best (within the BIC threshold of the best admissible
 /// refit), then the least change of the parameters already calibrated.
 fn likelier_first(judged: &[Judged], class: &mut [usize], opts: &Options) {
-    let (best_adm, n_eff) = judged
-        .iter()
-        .filter(|j| j.admissible.is_ok())
-        .map(|j| (j.ratio, j.n_eff))
-        .fold((f64::INFINITY, 2.0), |b, x| if x.0 < b.0 { x } else { b });
+    let (best_adm, n_eff) = best_admissible(judged);
     let tier = |j: &Judged| n_eff * (j.ratio / best_adm).ln() >= -opts.bic_threshold;
     class.sort_by(|&a, &b| match (judged.get(a), judged.get(b)) {
         (Some(ja), Some(jb)) => (ja.implausibility > 0.0)
@@ -481,9 +483,9 @@ fn likelier_first(judged: &[Judged], class: &mut [usize], opts: &Options) {
 /// mechanical quantity rescaled to match, can follow a stepped sine better than the motor
 /// friction that is really there (motor_viscous/6 of the foreign suite: ΔBIC −5080 against
 /// −2814; the validation record, on the 3 % of its rows both keep, prefers the friction:
-/// NRMSE 0.0468 against 0.0499). Without
-/// a validation record nothing joins: the estimation records are all the evidence there is,
-/// and the step's value is reported with its plausible range.
+/// NRMSE 0.0468 against 0.0499). Without a validation record nothing joins: the estimation
+/// records are all the evidence there is, and the step's value is reported with its
+/// plausible range.
 pub(super) fn with_plausible_kin(
     cx: &Ctx,
     cur: &Fit,
@@ -503,7 +505,6 @@ pub(super) fn with_plausible_kin(
     let Some(jb) = judged.get(best) else {
         return class;
     };
-    let vw = cx.val_weighted(&cur.params);
     let at = |i: usize| {
         (
             i,
@@ -512,6 +513,10 @@ pub(super) fn with_plausible_kin(
         )
     };
     let best_at = at(best);
+    let vw = cx.val_weighted(&cur.params);
+    if vw.is_none() || best_at.2.is_none() {
+        return class;
+    }
     let kin_of_best = kin::kin(jb.effect);
     let joining: Vec<usize> = (0..judged.len())
         .filter(|i| !class.contains(i))
@@ -522,9 +527,7 @@ pub(super) fn with_plausible_kin(
         })
         .filter(|&i| {
             let other = at(i);
-            vw.is_some()
-                && best_at.2.is_some()
-                && other.2.is_some()
+            other.2.is_some()
                 && !matches!(
                     val_order(cx, vw.as_ref(), judged, &best_at, &other),
                     Some((std::cmp::Ordering::Less, _, _))
