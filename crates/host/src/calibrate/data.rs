@@ -89,18 +89,56 @@ pub const SEARCH_ROWS: usize = 20_000;
 /// ([`crate::record::OUTPUT_COLUMNS`]).
 pub const FIT_OUTPUTS: [&str; 5] = crate::record::OUTPUT_COLUMNS;
 
+/// Whether a record starts in motion (in the steady state of its first voltage) rather
+/// than at rest: its first output sample `y[0]` is far from zero (more than 5 % of the
+/// largest) and, for a speed-like output under a first voltage that is not zero, of the
+/// sign and at least half the size of what the record shows elsewhere at that voltage (the
+/// median output over the rows whose voltage is within 10 % of it). A sensor offset puts
+/// the first sample of a record that starts at rest far from zero too; only the second
+/// test tells the two apart (foreign case tach_offset/10: a 0.18 V tachometer offset at
+/// rest under 7.85 V, 0.21 V against a threshold of 0.20 V, where the record shows a
+/// median of 2.3 V at that voltage; the real square-wave record: −6.2 V under −15.6 V,
+/// median −5.8 V). Without rows to compare with, the first test alone decides.
+pub fn starts_in_motion(volts: &[f64], y: &[f64], output: &str) -> bool {
+    let peak = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let (Some(&y0), Some(&v0)) = (y.first(), volts.first()) else {
+        return false;
+    };
+    if y0.is_nan() || y0.abs() <= 0.05 * peak {
+        return false;
+    }
+    let speed_like = matches!(
+        output,
+        "tach_voltage_v" | "motor_speed_rad_s" | "load_speed_rad_s"
+    );
+    if !speed_like || v0 == 0.0 || !v0.is_finite() {
+        return true;
+    }
+    let mut near: Vec<f64> = volts
+        .iter()
+        .zip(y)
+        .skip(1)
+        .filter(|(v, _)| (**v - v0).abs() <= 0.1 * v0.abs())
+        .map(|(_, y)| *y)
+        .collect();
+    if near.len() < 3 {
+        return true;
+    }
+    near.sort_by(f64::total_cmp);
+    let median = near.get(near.len() / 2).copied().unwrap_or(y0);
+    median * y0 > 0.0 && y0.abs() >= 0.5 * median.abs()
+}
+
 impl Data {
-    /// Prepares `rec`: picks the first output of [`FIT_OUTPUTS`] it has. When the first
-    /// output sample is far from zero (more than 5 % of the largest), the record did not
-    /// start at rest: the first voltage is then held for 2 s before it (a steady state).
+    /// Prepares `rec`: picks the first output of [`FIT_OUTPUTS`] it has. When the record
+    /// did not start at rest ([`starts_in_motion`]), the first voltage is held for 2 s
+    /// before it (a steady state).
     pub fn from_record(rec: &Record, name: &str) -> Result<Data, HostError> {
         let (output, y) = FIT_OUTPUTS
             .iter()
             .find_map(|c| rec.output(c).map(|y| (c.to_string(), y.to_vec())))
             .ok_or_else(|| HostError::input(format!("{name}: no output column to fit")))?;
-        let peak = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let y0 = y.first().copied().unwrap_or(0.0);
-        let preroll = if y0.abs() > 0.05 * peak {
+        let preroll = if starts_in_motion(&rec.motor_voltage_v, &y, &output) {
             (2.0 / rec.sample_period_s).round() as usize
         } else {
             0
@@ -445,6 +483,51 @@ pub fn thinned(data: &[Data]) -> Vec<Data> {
 pub(crate) mod tests {
     use super::*;
     use geared_servo::REFERENCE;
+
+    /// A square wave of ±`v` V with 0.1 s halves, 0.5 s at 2 kHz, as a tachometer record
+    /// of the reference actuator from rest, with `offset` V added to the tachometer; with
+    /// `in_motion`, the record starts 0.25 s in (its first voltage held for 50 ms by then).
+    fn square_record(v: f64, offset: f64, in_motion: bool) -> (Vec<f64>, Vec<f64>) {
+        let volts: Vec<f64> = (0..1600)
+            .map(|k| if (k / 200) % 2 == 0 { v } else { -v })
+            .collect();
+        let mut d = data_of(volts.clone(), H, None);
+        d.output = "tach_voltage_v".to_string();
+        let mut p = REFERENCE;
+        p.sample_period_s = H;
+        let y: Vec<f64> = output(&p, &d)
+            .unwrap()
+            .into_iter()
+            .map(|t| t + offset)
+            .collect();
+        let skip = if in_motion { 500 } else { 0 };
+        (volts[skip..].to_vec(), y[skip..].to_vec())
+    }
+
+    #[test]
+    fn a_sensor_offset_at_rest_is_not_motion_at_the_start() {
+        let out = "tach_voltage_v";
+        // At rest, no offset: the first sample is zero.
+        let (v, y) = square_record(8.0, 0.0, false);
+        assert!(!starts_in_motion(&v, &y, out));
+        // At rest with an offset above 5 % of the peak: still at rest (the record shows a
+        // far larger output at that voltage later).
+        let (v, y) = square_record(8.0, 0.2, false);
+        let peak = y.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        assert!(
+            0.2 > 0.05 * peak,
+            "the offset must pass the first test: {peak}"
+        );
+        assert!(!starts_in_motion(&v, &y, out));
+        // In motion, with or without the offset.
+        for offset in [0.0, 0.2] {
+            let (v, y) = square_record(8.0, offset, true);
+            assert!(starts_in_motion(&v, &y, out), "offset {offset}");
+        }
+        // An output that is not speed-like keeps the first test alone.
+        let (v, y) = square_record(8.0, 0.2, false);
+        assert!(starts_in_motion(&v, &y, "current_a"));
+    }
 
     const H: f64 = 5e-4;
     /// Rows of one piece of [`stepped`]: a 0.1 s rest and a 0.3 s burst.
