@@ -3,7 +3,7 @@
 //! geared-servo-host-tests --example calib_probe -- KIND DRAWS`).
 use geared_servo::ActuatorParams;
 use geared_servo_host::calibrate::{self, Param, BASE_KNOBS};
-use geared_servo_host::diagnose::{diagnose, Options};
+use geared_servo_host::diagnose::Options;
 use geared_servo_host::{noise, predictability};
 use geared_servo_host_tests::foreign::{self, Kind};
 use std::time::Instant;
@@ -142,13 +142,7 @@ fn main() {
         let sigma = noise::sigma(&d.y);
         let te = eq_truth(&c);
         let t0 = Instant::now();
-        let out = diagnose(
-            &c.file,
-            std::slice::from_ref(d),
-            Some(&c.validation),
-            &Options::default(),
-        )
-        .unwrap();
+        let out = c.diagnose(&Options::default()).unwrap();
         let w = d.with_weights(&out.weights[0]);
         let fl = noise::floor_nrmse(sigma, &w.weight, w.norm);
         println!(
@@ -702,13 +696,7 @@ pub fn only(c: &foreign::ForeignCase) {
         candidates: c.expected.iter().map(|x| x.0).collect(),
         ..Options::default()
     };
-    let out = diagnose(
-        &c.file,
-        std::slice::from_ref(&c.estimation),
-        Some(&c.validation),
-        &opts,
-    )
-    .unwrap();
+    let out = c.diagnose(&opts).unwrap();
     println!(
         "ONLY {}: steps {:?} unexplained {} final {:.4} base {:.4} rejected {:?}",
         c.label(),

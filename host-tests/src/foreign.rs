@@ -17,6 +17,7 @@
 use crate::reference::{relative_rms_error, rms, Reference};
 use geared_servo::{ActuatorParams, Effect, Stiffness, REFERENCE};
 use geared_servo_host::calibrate::{self, Data};
+use geared_servo_host::diagnose;
 use geared_servo_host::record::Record;
 use geared_servo_host::HostError;
 use rand::{Rng, SeedableRng};
@@ -453,6 +454,17 @@ pub struct Rattle {
 }
 
 impl ForeignCase {
+    /// `diagnose` as a user runs it on this case: the file's parameters, the estimation
+    /// record, the validation record given with `--validate`, and `opts`.
+    pub fn diagnose(&self, opts: &diagnose::Options) -> Result<diagnose::Outcome, HostError> {
+        diagnose::diagnose(
+            &self.file,
+            std::slice::from_ref(&self.estimation),
+            Some(&self.validation),
+            opts,
+        )
+    }
+
     /// What a calibration with the file's resistance should find for effect `e` of true
     /// value `v`: `v · s` when it [`scales_with_resistance`], `v / s` for the tachometer's
     /// current pickup (the model's current is s times the true one), `v` otherwise.

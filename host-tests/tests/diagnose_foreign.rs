@@ -12,7 +12,7 @@
 
 use geared_servo::{ActuatorParams, Effect};
 use geared_servo_host::calibrate::{self, Param, BASE_KNOBS};
-use geared_servo_host::diagnose::{diagnose, Options, Outcome, Step};
+use geared_servo_host::diagnose::{Options, Outcome, Step};
 use geared_servo_host::predictability;
 use geared_servo_host_tests::foreign::{self, ForeignCase, Kind, FINE_STEP_S};
 use std::time::{Duration, Instant};
@@ -339,12 +339,7 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
     let mut rows = Vec::new();
     for c in &cases {
         let t = Instant::now();
-        let res = diagnose(
-            &c.file,
-            std::slice::from_ref(&c.estimation),
-            Some(&c.validation),
-            &Options::default(),
-        );
+        let res = c.diagnose(&Options::default());
         let wall = t.elapsed();
         let out = match res {
             Ok(o) => o,
@@ -659,13 +654,7 @@ fn the_unit_in_the_files_constants_is_exact() {
 #[test]
 fn an_implausible_tachometer_gain_gives_way_to_the_friction_that_is_there() {
     let c = foreign::case(Kind::Single(Effect::MotorViscous), 6).unwrap();
-    let out = diagnose(
-        &c.file,
-        std::slice::from_ref(&c.estimation),
-        Some(&c.validation),
-        &Options::default(),
-    )
-    .unwrap();
+    let out = c.diagnose(&Options::default()).unwrap();
     eprintln!("{}: {}", c.label(), fmt_steps(&out));
     assert!(!out.unexplained);
     let [step] = out.steps.as_slice() else {
@@ -698,13 +687,7 @@ fn an_implausible_tachometer_gain_gives_way_to_the_friction_that_is_there() {
 fn a_model_stuck_on_rows_it_misses_is_settled_again() {
     let c = foreign::case(Kind::OutOfLibrary, 1).unwrap();
     let opts = Options::default();
-    let out = diagnose(
-        &c.file,
-        std::slice::from_ref(&c.estimation),
-        Some(&c.validation),
-        &opts,
-    )
-    .unwrap();
+    let out = c.diagnose(&opts).unwrap();
     let fin = out.final_analysis.nrmse;
     eprintln!(
         "{}: {}; final NRMSE {fin:.4}, floor {:.4}",
