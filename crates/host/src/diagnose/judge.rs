@@ -371,17 +371,27 @@ pub(super) fn judge(
     // (tach_gain/10 of the foreign suite: a 6 % gain was held against the 0.79 that a
     // voltage limit's ablation reached on the limit's rows, and refused, where the best
     // point on the gain's own rows is 0.84 and the gain earns its parameter).
-    let improving: Vec<&ActuatorParams> = judged
-        .iter()
-        .filter(|j| j.ablated_c < j.cur_c)
-        .map(|j| &j.ablated)
-        .collect();
+    // Every ablation is such a point, also one that is worse than the current model on its
+    // own candidate's rows: it may still be the better point on another candidate's rows
+    // (tach_gain/10 again: taking only the ablations that improved on their own rows
+    // let a 60 mV dead band in before the gain). A candidate's own ablation is already
+    // costed on its rows (`ablated_c`).
+    let points: Vec<&ActuatorParams> = judged.iter().map(|j| &j.ablated).collect();
     let nulls: Vec<f64> = judged
         .par_iter()
-        .map(|j| {
-            improving
+        .enumerate()
+        .map(|(i, j)| {
+            points
                 .iter()
-                .map(|q| calibrate::cost(q, &j.common) / j.cur_c)
+                .enumerate()
+                .map(|(m, q)| {
+                    let c = if m == i {
+                        j.ablated_c
+                    } else {
+                        calibrate::cost(q, &j.common)
+                    };
+                    c / j.cur_c
+                })
                 .filter(|r| r.is_finite())
                 .fold(1.0_f64, f64::min)
         })
