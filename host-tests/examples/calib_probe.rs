@@ -143,6 +143,17 @@ fn main() {
         let te = eq_truth(&c);
         let t0 = Instant::now();
         let out = c.diagnose(&Options::default()).unwrap();
+        if std::env::var("COVER").is_ok() {
+            println!(
+                "== {} ({:.1}s): steps {:?} final {:.4}",
+                c.label(),
+                t0.elapsed().as_secs_f64(),
+                out.steps.iter().map(|s| s.effect).collect::<Vec<_>>(),
+                out.final_fit.cost.sqrt()
+            );
+            cover(&c, &out);
+            continue;
+        }
         let w = d.with_weights(&out.weights[0]);
         let fl = noise::floor_nrmse(sigma, &w.weight, w.norm);
         println!(
@@ -1140,5 +1151,66 @@ fn finish(
                 t.elapsed().as_secs_f64(),
             );
         }
+    }
+}
+
+/// Rows a model with the effect keeps that the final model gives up (`COVER=1`): whether a
+/// hidden stiction shows where the model without it calls the record unpredictable (on
+/// stiction_ratio/9 and /10 it does not: the polished stiction model keeps no more rows and
+/// follows every set of rows as the final model does; docs/dev/README.md, 22nd session).
+pub fn cover(c: &foreign::ForeignCase, out: &geared_servo_host::diagnose::Outcome) {
+    use geared_servo::Effect;
+    let te = eq_truth(c);
+    let f = out.final_fit.params;
+    let stiction = if te.effects.stiction_ratio > 0.0 {
+        te.effects.stiction_ratio
+    } else {
+        1.5
+    };
+    let mut s = f;
+    s.effects.set(Effect::StictionRatio, stiction);
+    let mv = c.estimation.max_abs_v().max(c.validation.max_abs_v());
+    let mut knobs = out.final_fit.knobs.clone();
+    knobs.push(calibrate::knob(
+        &s,
+        Param::Effect(Effect::StictionRatio),
+        mv,
+    ));
+    for (name, d) in [("est", &c.estimation), ("val", &c.validation)] {
+        let sigma = noise::sigma(&d.y);
+        let (wf, _) = predictability::weigh(&f, d);
+        let (ws0, _) = predictability::weigh(&s, d);
+        let sp = calibrate::polish(&s, &knobs, std::slice::from_ref(&ws0), 8).params;
+        let (ws, _) = predictability::weigh(&sp, d);
+        let (wt, _) = predictability::weigh(&te, d);
+        let extra: Vec<f64> = ws
+            .weight
+            .iter()
+            .zip(&wf.weight)
+            .map(|(a, b)| (a - b).max(0.0))
+            .collect();
+        let dx = d.with_weights(&extra);
+        let share = |w: &[f64]| 100.0 * w.iter().sum::<f64>() / w.len() as f64;
+        let row = |lab: &str, w: &calibrate::Data| {
+            println!(
+                "    {name} {lab:6} {:5.1}%: final {:.4} with-stiction {:.4} truth {:.4} floor {:.4}",
+                share(&w.weight),
+                calibrate::nrmse(&f, w),
+                calibrate::nrmse(&sp, w),
+                calibrate::nrmse(&te, w),
+                noise::floor_nrmse(sigma, &w.weight, w.norm)
+            )
+        };
+        row("R_F", &wf);
+        row("R_S", &ws);
+        row("R_T", &wt);
+        // An empty set would be read as every row (`Data::with_weights`).
+        if extra.iter().sum::<f64>() > 0.0 {
+            row("S-F", &dx);
+        }
+        println!(
+            "    {name} stiction polished {:.3} (truth {:.3})",
+            sp.effects.stiction_ratio, te.effects.stiction_ratio
+        );
     }
 }

@@ -75,13 +75,7 @@ pub fn time_series(
 }
 
 fn unit_of(output: &str) -> &'static str {
-    match output {
-        "tach_voltage_v" => "V",
-        "motor_speed_rad_s" | "load_speed_rad_s" => "rad/s",
-        "load_angle_deg" => "deg",
-        "current_a" => "A",
-        _ => "",
-    }
+    crate::simulate::column(output).map_or("", |c| c.unit)
 }
 
 /// Welch spectra of the residual before and after, dB (relative to 1 unit²).

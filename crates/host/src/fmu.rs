@@ -16,7 +16,7 @@
 use crate::error::HostError;
 use crate::param_list::{unit_of, ParamList, Value, DIMENSIONLESS};
 use crate::params_file;
-use crate::simulate::SIMULATE_COLUMNS;
+use crate::simulate::{COLUMNS, SIMULATE_COLUMNS};
 use geared_servo::ActuatorParams;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -42,21 +42,6 @@ pub const FIRST_OUTPUT_VR: u32 = 1;
 
 /// Value reference of the first parameter; entry `i` of the [`ParamList`] is this plus `i`.
 pub const FIRST_PARAMETER_VR: u32 = FIRST_OUTPUT_VR + SIMULATE_COLUMNS.len() as u32;
-
-/// Description of each output, by column: what `simulate` writes (INTERFACES.md).
-fn output_description(column: &str) -> &'static str {
-    match column {
-        "tach_voltage_v" => "tachometer voltage",
-        "motor_speed_rad_s" => "motor speed",
-        "load_angle_deg" => "load angle",
-        "current_a" => "armature current at the sample instant",
-        "load_speed_rad_s" => "load speed",
-        "transmitted_torque_nm" => "torque transmitted through the gears to the load",
-        "in_contact" => "1 while the gear teeth are in contact, else 0",
-        "mean_current_a" => "armature current averaged over the last sample period",
-        _ => "",
-    }
-}
 
 /// SI base-unit exponents (kg, m, s, A, rad) and factor of each unit the variables use, for
 /// `<UnitDefinitions>`. A test checks that every unit of the variables is here.
@@ -128,11 +113,7 @@ pub fn model_description(params_text: &str) -> Result<String, HostError> {
     let p = params_file::parse(params_text, PARAMS_RESOURCE)?;
     let list = ParamList::new(&p)?;
     let mut units: Vec<&str> = vec![unit_of(INPUT).unwrap_or(DIMENSIONLESS)];
-    units.extend(
-        SIMULATE_COLUMNS
-            .iter()
-            .map(|c| unit_of(c).unwrap_or(DIMENSIONLESS)),
-    );
+    units.extend(COLUMNS.iter().map(|c| c.unit));
     units.extend(list.entries().iter().map(|e| e.unit));
     let mut used: Vec<&str> = Vec::new();
     for u in units {
@@ -188,13 +169,14 @@ pub fn model_description(params_text: &str) -> Result<String, HostError> {
         r#"    <ScalarVariable name="{INPUT}" valueReference="{INPUT_VR}" description="motor voltage, held over each communication step" causality="input" variability="continuous"><Real{} start="0"/></ScalarVariable>"#,
         unit_attr(unit_of(INPUT).unwrap_or(DIMENSIONLESS))
     );
-    for (i, c) in SIMULATE_COLUMNS.iter().enumerate() {
+    for (i, c) in COLUMNS.iter().enumerate() {
         let _ = writeln!(
             w,
-            r#"    <ScalarVariable name="{c}" valueReference="{}" description="{}" causality="output" variability="continuous" initial="calculated"><Real{}/></ScalarVariable>"#,
+            r#"    <ScalarVariable name="{}" valueReference="{}" description="{}" causality="output" variability="continuous" initial="calculated"><Real{}/></ScalarVariable>"#,
+            c.name,
             FIRST_OUTPUT_VR + i as u32,
-            xml(output_description(c)),
-            unit_attr(unit_of(c).unwrap_or(DIMENSIONLESS))
+            xml(c.description),
+            unit_attr(c.unit)
         );
     }
     for (i, e) in list.entries().iter().enumerate() {

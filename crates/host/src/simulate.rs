@@ -5,32 +5,117 @@ use crate::error::HostError;
 use crate::scenario_file::HostScenario;
 use geared_servo::{ActuatorParams, Outputs, Plant, PlantState};
 
-/// Columns `simulate` writes, after `time_s` and `motor_voltage_v`.
-pub const SIMULATE_COLUMNS: [&str; 8] = [
-    "tach_voltage_v",
-    "motor_speed_rad_s",
-    "load_angle_deg",
-    "current_a",
-    "load_speed_rad_s",
-    "transmitted_torque_nm",
-    "in_contact",
-    "mean_current_a",
+/// What an output column measures: decides how a record of it is read (a speed sensor's
+/// first sample says whether the record starts in motion, `calibrate::starts_in_motion`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quantity {
+    /// A speed (the tachometer's voltage included).
+    Speed,
+    /// An angle.
+    Angle,
+    /// A current.
+    Current,
+    /// Anything else (a torque, a flag).
+    Other,
+}
+
+/// One output column of the model: what `simulate` writes, the FMU's outputs, and the
+/// columns a measured record may carry ([`crate::record::OUTPUT_COLUMNS`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Column {
+    /// Column name (INTERFACES.md).
+    pub name: &'static str,
+    /// Its unit, spelt as the parameter list spells units (`crate::param_list::unit_of`).
+    pub unit: &'static str,
+    /// What it is, in words (the FMU's variable description).
+    pub description: &'static str,
+    /// What it measures.
+    pub quantity: Quantity,
+    /// Its value in one sample of the plant's outputs, in `unit`.
+    pub value: fn(&Outputs) -> f32,
+}
+
+/// The output columns, in the order `simulate` writes them after `time_s` and
+/// `motor_voltage_v` (the one list: names, units, descriptions and values).
+pub const COLUMNS: [Column; 8] = [
+    Column {
+        name: "tach_voltage_v",
+        unit: "V",
+        description: "tachometer voltage",
+        quantity: Quantity::Speed,
+        value: |o| o.tach_voltage_v,
+    },
+    Column {
+        name: "motor_speed_rad_s",
+        unit: "rad/s",
+        description: "motor speed",
+        quantity: Quantity::Speed,
+        value: |o| o.motor_speed_rad_s,
+    },
+    Column {
+        name: "load_angle_deg",
+        unit: "deg",
+        description: "load angle",
+        quantity: Quantity::Angle,
+        value: |o| o.load_angle_deg(),
+    },
+    Column {
+        name: "current_a",
+        unit: "A",
+        description: "armature current at the sample instant",
+        quantity: Quantity::Current,
+        value: |o| o.current_a,
+    },
+    Column {
+        name: "load_speed_rad_s",
+        unit: "rad/s",
+        description: "load speed",
+        quantity: Quantity::Speed,
+        value: |o| o.load_speed_rad_s,
+    },
+    Column {
+        name: "transmitted_torque_nm",
+        unit: "N*m",
+        description: "torque transmitted through the gears to the load",
+        quantity: Quantity::Other,
+        value: |o| o.transmitted_torque_nm,
+    },
+    Column {
+        name: "in_contact",
+        unit: crate::param_list::DIMENSIONLESS,
+        description: "1 while the gear teeth are in contact, else 0",
+        quantity: Quantity::Other,
+        value: |o| if o.in_contact { 1.0 } else { 0.0 },
+    },
+    Column {
+        name: "mean_current_a",
+        unit: "A",
+        description: "armature current averaged over the last sample period",
+        quantity: Quantity::Current,
+        value: |o| o.mean_current_a,
+    },
 ];
 
-/// The values of [`SIMULATE_COLUMNS`] for one sample, in their units (`in_contact`: 1 while
-/// the gears touch, else 0). `simulate` writes them and the FMU's outputs are them.
-pub fn row(o: &Outputs) -> [f64; SIMULATE_COLUMNS.len()] {
-    [
-        o.tach_voltage_v,
-        o.motor_speed_rad_s,
-        o.load_angle_deg(),
-        o.current_a,
-        o.load_speed_rad_s,
-        o.transmitted_torque_nm,
-        if o.in_contact { 1.0 } else { 0.0 },
-        o.mean_current_a,
-    ]
-    .map(f64::from)
+/// The names of [`COLUMNS`], in their order.
+pub const SIMULATE_COLUMNS: [&str; COLUMNS.len()] = {
+    let mut names = [""; COLUMNS.len()];
+    let mut i = 0;
+    while i < COLUMNS.len() {
+        names[i] = COLUMNS[i].name;
+        i += 1;
+    }
+    names
+};
+
+/// The column named `name`, if the model has one.
+pub fn column(name: &str) -> Option<&'static Column> {
+    COLUMNS.iter().find(|c| c.name == name)
+}
+
+/// The values of [`COLUMNS`] for one sample, in their units (`in_contact`: 1 while the gears
+/// touch, else 0). `simulate` writes them and the FMU's outputs are them.
+pub fn row(o: &Outputs) -> [f64; COLUMNS.len()] {
+    COLUMNS.map(|c| f64::from((c.value)(o)))
 }
 
 /// Simulates `volts` (one per row, applied after that row's sample) from rest at period
@@ -72,4 +157,49 @@ pub fn simulate_with_scenario(
         };
     }
     Ok(cols)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_column_has_the_unit_its_name_says() {
+        for c in &COLUMNS {
+            let by_name = crate::param_list::unit_of(c.name);
+            assert_eq!(Some(c.unit), by_name, "{}", c.name);
+        }
+    }
+
+    #[test]
+    fn every_record_output_is_a_model_column() {
+        for name in crate::record::OUTPUT_COLUMNS {
+            assert!(column(name).is_some(), "{name}");
+        }
+        assert!(column("time_s").is_none());
+    }
+
+    #[test]
+    fn each_column_holds_the_output_it_names() {
+        let plant = Plant::new(&geared_servo::REFERENCE).unwrap();
+        let mut st = PlantState::REST;
+        let mut o = plant.outputs(&st);
+        for _ in 0..200 {
+            o = plant.step(&mut st, 6.0);
+        }
+        let r = row(&o);
+        let at = |name: &str| r[COLUMNS.iter().position(|c| c.name == name).unwrap()];
+        assert_eq!(at("tach_voltage_v"), f64::from(o.tach_voltage_v));
+        assert_eq!(at("motor_speed_rad_s"), f64::from(o.motor_speed_rad_s));
+        assert_eq!(at("load_angle_deg"), f64::from(o.load_angle_deg()));
+        assert_eq!(at("current_a"), f64::from(o.current_a));
+        assert_eq!(at("load_speed_rad_s"), f64::from(o.load_speed_rad_s));
+        assert_eq!(
+            at("transmitted_torque_nm"),
+            f64::from(o.transmitted_torque_nm)
+        );
+        assert_eq!(at("mean_current_a"), f64::from(o.mean_current_a));
+        assert_eq!(at("in_contact"), if o.in_contact { 1.0 } else { 0.0 });
+        assert!(o.motor_speed_rad_s > 0.0 && o.current_a != o.mean_current_a);
+    }
 }

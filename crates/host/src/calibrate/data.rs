@@ -4,6 +4,7 @@
 use crate::error::HostError;
 use crate::record::Record;
 use crate::residual::weighted_norm;
+use crate::simulate::{column, Quantity, COLUMNS};
 use geared_servo::{ActuatorParams, Outputs, Plant, PlantState};
 use nalgebra::DVector;
 
@@ -107,10 +108,7 @@ pub fn starts_in_motion(volts: &[f64], y: &[f64], output: &str) -> bool {
     if y0.is_nan() || y0.abs() <= 0.05 * peak {
         return false;
     }
-    let speed_like = matches!(
-        output,
-        "tach_voltage_v" | "motor_speed_rad_s" | "load_speed_rad_s"
-    );
+    let speed_like = column(output).is_some_and(|c| c.quantity == Quantity::Speed);
     if !speed_like || v0 == 0.0 || !v0.is_finite() {
         return true;
     }
@@ -379,16 +377,11 @@ fn run(
     for _ in 0..d.preroll {
         plant.step(&mut st, v0);
     }
+    // Data are made from the record's columns (`from_record`); the tachometer otherwise.
+    let value = column(&d.output).unwrap_or(&COLUMNS[0]).value;
     let mut o = plant.outputs(&st);
     for (k, &v) in d.volts.iter().enumerate() {
-        let y = match d.output.as_str() {
-            "motor_speed_rad_s" => o.motor_speed_rad_s,
-            "load_angle_deg" => o.load_angle_deg(),
-            "load_speed_rad_s" => o.load_speed_rad_s,
-            "current_a" => o.current_a,
-            _ => o.tach_voltage_v,
-        };
-        take(f64::from(y), &o);
+        take(f64::from(value(&o)), &o);
         hook(k, &mut st);
         o = plant.step(&mut st, v as f32);
     }
