@@ -390,7 +390,13 @@ fn run(
 
 /// NRMSE of `p` on `d` over its weighted rows (∞ if `p` is invalid).
 pub fn nrmse(p: &ActuatorParams, d: &Data) -> f64 {
-    match output(p, d) {
+    nrmse_of(output(p, d).as_deref(), d)
+}
+
+/// NRMSE over the weighted rows of `d` of a model output `y` already simulated over `d`'s
+/// input ([`output`]; ∞ for `None`, a model that could not be run).
+pub fn nrmse_of(y: Option<&[f64]>, d: &Data) -> f64 {
+    match y {
         Some(y) => {
             y.iter()
                 .zip(&d.y)
@@ -402,6 +408,22 @@ pub fn nrmse(p: &ActuatorParams, d: &Data) -> f64 {
         }
         None => f64::INFINITY,
     }
+}
+
+/// [`cost`] of a model whose outputs over the records' inputs are `outputs` (one per record
+/// of `data`, from [`output`]), without simulating again: the same records weighted
+/// otherwise share the run (the rows both of two models keep, say). `None` when a record
+/// has the robust loss, which needs the run's windows ([`cost`] then).
+pub fn cost_of(outputs: &[Option<Vec<f64>>], data: &[Data]) -> Option<f64> {
+    if data.iter().any(|d| d.robust.is_some()) || outputs.len() != data.len() {
+        return None;
+    }
+    let sum: f64 = outputs
+        .iter()
+        .zip(data)
+        .map(|(y, d)| nrmse_of(y.as_deref(), d).powi(2))
+        .sum();
+    Some(sum / data.len().max(1) as f64)
 }
 
 /// Stacked normalised residuals (measured − model) over all records: Σ r² = mean over
@@ -520,6 +542,34 @@ pub(crate) mod tests {
         // An output that is not speed-like keeps the first test alone.
         let (v, y) = square_record(8.0, 0.2, false);
         assert!(starts_in_motion(&v, &y, "current_a"));
+    }
+
+    #[test]
+    fn a_run_costed_on_other_weights_is_the_cost() {
+        let mut p = REFERENCE;
+        p.sample_period_s = H;
+        let volts: Vec<f64> = (0..1600)
+            .map(|k| if (k / 200) % 2 == 0 { 6.0 } else { -6.0 })
+            .collect();
+        let mut q = p;
+        q.load.inertia_kg_m2 *= 1.3;
+        let d = data_of(volts, H, Some(&q));
+        let runs = [output(&p, &d)];
+        let half: Vec<f64> = (0..1600).map(|k| f64::from(u8::from(k % 3 != 0))).collect();
+        for w in [d.clone(), d.with_weights(&half)] {
+            let both = [w];
+            let c = cost_of(&runs, &both).unwrap();
+            assert_eq!(c, cost(&p, &both));
+            assert!(c > 0.0);
+        }
+        // The robust loss needs the run's windows: not from a stored output.
+        let r = [d.with_robust(Some(Robust::new(0.01, H)))];
+        assert!(cost_of(&runs, &r).is_none());
+        // An invalid model costs infinity either way.
+        assert_eq!(
+            cost_of(&[None], std::slice::from_ref(&d)),
+            Some(f64::INFINITY)
+        );
     }
 
     const H: f64 = 5e-4;

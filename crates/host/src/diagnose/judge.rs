@@ -133,8 +133,6 @@ pub(super) struct Judged {
     /// The candidate's refit with the effect switched back to the current model's value:
     /// a point of the model without it.
     ablated: ActuatorParams,
-    /// Its cost there.
-    ablated_c: f64,
     /// Its value lies within the background range (rejected as such).
     within_background: bool,
     /// Those rows.
@@ -347,7 +345,6 @@ pub(super) fn judge(
             floor_c,
             floor_sd,
             ablated,
-            ablated_c,
             within_background: within_background == Some(true),
             common,
             own,
@@ -374,23 +371,27 @@ pub(super) fn judge(
     // Every ablation is such a point, also one that is worse than the current model on its
     // own candidate's rows: it may still be the better point on another candidate's rows
     // (tach_gain/10 again: taking only the ablations that improved on their own rows
-    // let a 60 mV dead band in before the gain). A candidate's own ablation is already
-    // costed on its rows (`ablated_c`).
-    let points: Vec<&ActuatorParams> = judged.iter().map(|j| &j.ablated).collect();
+    // let a 60 mV dead band in before the gain). Each point is run once over the records
+    // and costed on every candidate's rows from that run (N runs, not N²).
+    let runs: Vec<Vec<Option<Vec<f64>>>> = judged
+        .par_iter()
+        .map(|j| {
+            cx.data
+                .iter()
+                .map(|d| calibrate::output(&j.ablated, d))
+                .collect()
+        })
+        .collect();
     let nulls: Vec<f64> = judged
         .par_iter()
-        .enumerate()
-        .map(|(i, j)| {
-            points
+        .map(|j| {
+            judged
                 .iter()
-                .enumerate()
-                .map(|(m, q)| {
-                    let c = if m == i {
-                        j.ablated_c
-                    } else {
-                        calibrate::cost(q, &j.common)
-                    };
-                    c / j.cur_c
+                .zip(&runs)
+                .map(|(q, run)| {
+                    calibrate::cost_of(run, &j.common)
+                        .unwrap_or_else(|| calibrate::cost(&q.ablated, &j.common))
+                        / j.cur_c
                 })
                 .filter(|r| r.is_finite())
                 .fold(1.0_f64, f64::min)
