@@ -474,7 +474,8 @@ pub fn cost(p: &ActuatorParams, data: &[Data]) -> f64 {
     if data.iter().any(|d| d.robust.is_some()) {
         return residuals(p, data).norm_squared();
     }
-    data.iter().map(|d| nrmse(p, d).powi(2)).sum::<f64>() / data.len().max(1) as f64
+    let outputs: Vec<Option<Vec<f64>>> = data.iter().map(|d| output(p, d)).collect();
+    cost_of(&outputs, data).unwrap_or(f64::INFINITY)
 }
 
 /// The records with the robust window loss ([`Robust`]), each at its own noise level

@@ -553,7 +553,14 @@ fn diagnose_records(
     let mut last_scores = Vec::new();
     let mut rejected: Vec<Rejection> = Vec::new();
     let mut resettled = false;
-    while steps.len() < opts.max_steps && cx.material(cur.cost, &wdata) {
+    // A backward step takes a step back out, so the steps alone do not bound the rounds
+    // (an effect removed could be added again): at most twice as many rounds as steps.
+    let mut rounds = 0;
+    while steps.len() < opts.max_steps
+        && rounds < 2 * opts.max_steps + 2
+        && cx.material(cur.cost, &wdata)
+    {
+        rounds += 1;
         // The rows a search from afar can use, under the current fit: a candidate's refit
         // searches there and is polished and judged on the fine rows.
         let sdata = cx.weigh_smooth(&cur.params);
