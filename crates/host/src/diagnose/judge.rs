@@ -300,7 +300,7 @@ pub(super) fn judge(
             .knobs
             .iter()
             .find(|x| x.floor_ok && x.param == k.param)
-            .map(|x| value <= x.hi * 1.01);
+            .map(|x| within_background(x, value));
         // Ablation: the effect switched back to what the current model has (off, or the
         // background), everything else as refitted. A refit whose gain survives that came
         // from moving the other parameters (a better point of the base set, or a limit
@@ -804,6 +804,14 @@ pub(super) fn backward_step(
     None
 }
 
+/// Whether `value` lies within the background range of the background knob `bg` (up to
+/// its upper end, with 1 % for the optimiser's last step; a NaN value is within nothing):
+/// the one test of the admission rule (`within_background` in [`judge`]) and of
+/// [`back_to_background`].
+fn within_background(bg: &Knob, value: f64) -> bool {
+    value <= bg.hi * 1.01
+}
+
 /// An earlier mesh damping step (among `earlier`) whose value in `cur` has fallen back
 /// inside the background range ([`calibrate::BACKGROUND_DAMPING`], when the file declares
 /// no mesh damping) once `added` was added: it stood in for `added` while that was
@@ -828,9 +836,7 @@ fn back_to_background(
     let bg = calibrate::background_damping_knob(&cx.nominal, cx.max_v);
     let ki = cur.knobs.iter().position(|k| k.param == param)?;
     let value = calibrate::get(&cur.params, param);
-    // (A NaN value is not within anything.)
-    let within = value <= bg.hi * 1.01;
-    if cur.knobs.get(ki)?.floor_ok || !within {
+    if cur.knobs.get(ki)?.floor_ok || !within_background(&bg, value) {
         return None;
     }
     let mut without = cur.clone();
