@@ -553,7 +553,6 @@ fn diagnose_records(
     let mut last_scores = Vec::new();
     let mut rejected: Vec<Rejection> = Vec::new();
     let mut resettled = false;
-    let mut provisional: Option<Provisional> = None;
     // A backward step takes a step back out, so the steps alone do not bound the rounds
     // (an effect removed could be added again): at most twice as many rounds as steps.
     let mut rounds = 0;
@@ -630,8 +629,7 @@ fn diagnose_records(
         let alts = search::structural_refits(&cx, &local, cur_poor, &from_file);
         let judged = judge::judge(&cx, &cur, &wdata, local, alts, &cur_bounds);
         let class = judge::with_plausible_kin(&cx, &cur, &judged, judge::class(&judged, opts));
-        let mut acc = judge::accept(&cx, &cur, &judged, &class, &mut rejected, true);
-        if acc.is_none() {
+        let Some(acc) = judge::accept(&cx, &cur, &judged, &class, &mut rejected) else {
             for j in judged.iter().filter(|j| j.admissible.is_err()) {
                 rejected.push(Rejection {
                     effect: j.effect,
@@ -670,34 +668,8 @@ fn diagnose_records(
                     continue;
                 }
             }
-            // The last resort, once per search: the best candidate that holds on the
-            // estimation record's held-out segments, though the validation record refused
-            // it, taken provisionally ([`Provisional`]).
-            if provisional.is_none() && cx.validation.is_some() {
-                let mut ignored = Vec::new();
-                acc = judge::accept(&cx, &cur, &judged, &class, &mut ignored, false);
-                if let Some(j) = acc.as_ref().and_then(|a| judged.get(a.index)) {
-                    provisional = Some(Provisional {
-                        taken: Rejection {
-                            effect: j.effect,
-                            value: j.value,
-                            nrmse_after: rms_nrmse(j.fit.cost),
-                            reason: String::new(),
-                        },
-                        cur: cur.clone(),
-                        wdata: wdata.clone(),
-                        steps: steps.clone(),
-                        rejected: rejected.clone(),
-                        last_scores: last_scores.clone(),
-                        steps_after: 0,
-                    });
-                }
-            }
-        }
-        let Some(acc) = acc else { break };
-        if let Some(pv) = provisional.as_mut() {
-            pv.steps_after += 1;
-        }
+            break;
+        };
         rejected.clear();
         let (i, ho) = (acc.index, acc.held_out);
         let Some(chosen) = judged.get(i) else { break };
@@ -750,22 +722,6 @@ fn diagnose_records(
             wdata = r.own;
         }
     }
-    if let Some(pv) = provisional {
-        if let Some(why) = pv.refuted(&cx, &cur) {
-            cur = pv.cur;
-            wdata = pv.wdata;
-            steps = pv.steps;
-            rejected = pv.rejected;
-            last_scores = pv.last_scores;
-            rejected.insert(
-                0,
-                Rejection {
-                    reason: why,
-                    ..pv.taken
-                },
-            );
-        }
-    }
     if finish {
         if let Some((fit, w)) = fine_search(&cx, &cur, &wdata) {
             adopt(&mut cur, fit);
@@ -785,66 +741,6 @@ fn diagnose_records(
             rejected,
         },
     )
-}
-
-/// A step the search took against the validation record's refusal, and the state to return
-/// to. When the search would stop with a material residual and the best candidate holds on
-/// the estimation record's held-out segments but is worse on the validation record, the
-/// refusal may be the second missing effect's doing: the validation record carries it too,
-/// and a base calibrated without both can be a stand-in (load inertia −28 to −96 %, a
-/// friction ×7–×10 on the foreign suite's pair/12–14) on which the right first effect makes
-/// the validation record worse (pair/12: input_delay at the unit's value, validation NRMSE
-/// 0.26 → 0.38; with load_viscous added after it, 0.022 at the floor 0.020). The step is
-/// taken once per search, and kept only when at least one more step follows it and the
-/// validation record then agrees ([`Provisional::refuted`]).
-struct Provisional {
-    /// The step taken, as it is reported when it goes back out.
-    taken: Rejection,
-    cur: Fit,
-    wdata: Vec<Data>,
-    steps: Vec<Step>,
-    rejected: Vec<Rejection>,
-    last_scores: Vec<(Effect, f64, f64)>,
-    /// Steps taken since (the provisional one included).
-    steps_after: usize,
-}
-
-impl Provisional {
-    /// Why the provisional steps go back out, or `None` when they stand: they stand when a
-    /// step followed the provisional one and the model reached explains at least
-    /// [`Options::min_excess_share`] of the validation error above its floor that the
-    /// model before them left (on the rows both keep).
-    fn refuted(&self, cx: &Ctx, now: &Fit) -> Option<String> {
-        let judged = judge::on_validation(
-            cx,
-            cx.val_weighted(&self.cur.params).as_ref(),
-            cx.val_weighted(&now.params).as_ref(),
-            &self.cur.params,
-            &now.params,
-        );
-        let share = judged.map(|(a, b, f)| validation_share(a, b, f));
-        match share {
-            Some(s) if self.steps_after >= 2 && s >= cx.opts.min_excess_share => None,
-            Some(s) => Some(format!(
-                "held on the estimation record's held-out segments but was worse on the validation record; taken provisionally, with {} step(s) after it the validation record's error above its floor was {:.0} % explained (needs {:.0} % and a second step): taken back out",
-                self.steps_after.saturating_sub(1),
-                100.0 * s,
-                100.0 * cx.opts.min_excess_share
-            )),
-            None => Some("taken provisionally without a validation record".to_string()),
-        }
-    }
-}
-
-/// The share of the validation error above its floor `f` that a model at NRMSE `b`
-/// explains against one at `a` (0 when `a` is at the floor or below it).
-fn validation_share(a: f64, b: f64, f: f64) -> f64 {
-    let (ea, eb) = (a * a - f * f, (b * b - f * f).max(0.0));
-    if ea > 0.0 {
-        1.0 - eb / ea
-    } else {
-        0.0
-    }
 }
 
 /// What a pass found, before it is concluded ([`conclude`]).
@@ -987,22 +883,6 @@ mod tests {
     use super::*;
     use crate::calibrate::tests::data_of;
     use geared_servo::REFERENCE;
-
-    /// [`Provisional::refuted`]'s measure: pair/12 of the foreign suite, validation NRMSE
-    /// 0.26 before the provisional step and 0.022 after the second at a floor of 0.020, is
-    /// all but fully explained; a model worse than the one before, or one already at the
-    /// floor, explains nothing.
-    #[test]
-    fn the_validation_share_counts_only_what_lies_above_the_floor() {
-        let s = validation_share(0.26, 0.022, 0.020);
-        assert!(s > 0.99 && s < 1.0, "{s}");
-        assert!(validation_share(0.26, 0.02, 0.02) == 1.0);
-        assert!(validation_share(0.26, 0.30, 0.02) < 0.0);
-        assert!(validation_share(0.02, 0.01, 0.02) == 0.0);
-        // 0.26 -> 0.22: (0.0676 - 0.0484) / 0.0672 of the excess, under the 30 % rule.
-        let s = validation_share(0.26, 0.22, 0.02);
-        assert!(s > 0.28 && s < 0.29, "{s}");
-    }
 
     /// Gaussian noise of standard deviation `s`, deterministic (xorshift, Box–Muller).
     fn noise(n: usize, s: f64) -> Vec<f64> {
