@@ -584,12 +584,17 @@ pub(super) fn with_plausible_kin(
 /// index with its held-out NRMSEs (without, with) and the members of the class the
 /// validation record told apart from it (no longer indistinguishable); those tried before
 /// the first are pushed to `rejected`.
+///
+/// With `veto` false the validation record does not refuse a candidate (it still orders
+/// the class): the provisional step of the search, when nothing else holds
+/// ([`super::Provisional`]).
 pub(super) fn accept(
     cx: &Ctx,
     cur: &Fit,
     judged: &[Judged],
     class: &[usize],
     rejected: &mut Vec<Rejection>,
+    veto: bool,
 ) -> Option<Accepted> {
     let vw = cx.val_weighted(&cur.params);
     let mut holding: Vec<(usize, (f64, f64), Option<Data>)> = Vec::new();
@@ -597,28 +602,13 @@ pub(super) fn accept(
         let j = judged.get(i)?;
         let ho = held_out(cur, &j.fit, &j.common);
         let ho_ok = ho.1 < ho.0;
-        // The validation record on the rows both models keep.
         let jw = cx.val_weighted(&j.fit.params);
-        let vc = match (&vw, &jw) {
-            (Some(a), Some(b)) => Some(a.with_rows_both_keep(a, b)),
-            _ => None,
-        };
-        let vc = vc.as_ref();
-        let val_floor = match (vc, cx.val_sigma) {
-            (Some(v), Some(s)) => noise::floor_nrmse(s, &v.weight, v.norm),
-            _ => 0.0,
-        };
-        let val_ok = match vc {
-            Some(v) => {
-                let a = calibrate::nrmse(&cur.params, v);
-                let b = calibrate::nrmse(&j.fit.params, v);
-                // Not materially worse: by no more than a tenth of the validation error
-                // above its floor plus a tenth of the noise energy (one of two missing
-                // effects can leave a record that needs both no better).
-                b * b
-                    <= a * a
-                        + 0.1 * (a * a - val_floor * val_floor).max(0.0)
-                        + 0.1 * val_floor * val_floor
+        let val_ok = match on_validation(cx, vw.as_ref(), jw.as_ref(), &cur.params, &j.fit.params) {
+            // Not materially worse: by no more than a tenth of the validation error above
+            // its floor plus a tenth of the noise energy (one of two missing effects can
+            // leave a record that needs both no better).
+            Some((a, b, f)) if veto => {
+                b * b <= a * a + 0.1 * (a * a - f * f).max(0.0) + 0.1 * f * f
             }
             _ => true,
         };
@@ -695,6 +685,24 @@ pub(super) fn accept(
         held_out: chosen.1,
         told_apart,
     })
+}
+
+/// Two models on the validation record, on the rows both keep (`vw` and `jw`: the record
+/// weighted by each one's predictability): their NRMSEs `(a, b)` and the noise floor's
+/// there. `None` without a validation record.
+pub(super) fn on_validation(
+    cx: &Ctx,
+    vw: Option<&Data>,
+    jw: Option<&Data>,
+    a: &ActuatorParams,
+    b: &ActuatorParams,
+) -> Option<(f64, f64, f64)> {
+    let (vw, jw) = (vw?, jw?);
+    let v = vw.with_rows_both_keep(vw, jw);
+    let floor = cx
+        .val_sigma
+        .map_or(0.0, |s| noise::floor_nrmse(s, &v.weight, v.norm));
+    Some((calibrate::nrmse(a, &v), calibrate::nrmse(b, &v), floor))
 }
 
 /// The choice [`accept`] makes.

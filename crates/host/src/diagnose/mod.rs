@@ -553,174 +553,226 @@ fn diagnose_records(
     let mut last_scores = Vec::new();
     let mut rejected: Vec<Rejection> = Vec::new();
     let mut resettled = false;
+    let mut provisional: Option<Provisional> = None;
+    let mut provisional_used = false;
+    // A provisional step refuted goes back out, with the reason.
+    let mut taken_back: Option<Rejection> = None;
     // A backward step takes a step back out, so the steps alone do not bound the rounds
     // (an effect removed could be added again): at most twice as many rounds as steps.
     let mut rounds = 0;
-    while steps.len() < opts.max_steps
-        && rounds < 2 * opts.max_steps + 2
-        && cx.material(cur.cost, &wdata)
-    {
-        rounds += 1;
-        // The rows a search from afar can use, under the current fit: a candidate's refit
-        // searches there and is polished and judged on the fine rows.
-        let sdata = cx.weigh_smooth(&cur.params);
-        let rdata = calibrate::robust(&sdata);
-        let rows = search::Rows {
-            robust: &rdata,
-            smooth: &sdata,
-            fine: &wdata,
-        };
-        // A candidate must beat the model without it refitted the same way (the search is
-        // stochastic: a refit that merely finds a better point of the base set must not be
-        // credited to an effect).
-        let null = search::null_refit(&cur, &rows);
-        if null.cost < cur.cost {
-            adopt(&mut cur, null);
-        }
-        // An effect the model does not have yet, or one it carries only as a bounded
-        // background (the mesh damping): its whole range is the candidate.
-        let background = |c: Effect| {
-            cur.knobs
+    'search: loop {
+        while steps.len() < opts.max_steps
+            && rounds < 2 * opts.max_steps + 2
+            && cx.material(cur.cost, &wdata)
+        {
+            rounds += 1;
+            // The rows a search from afar can use, under the current fit: a candidate's refit
+            // searches there and is polished and judged on the fine rows.
+            let sdata = cx.weigh_smooth(&cur.params);
+            let rdata = calibrate::robust(&sdata);
+            let rows = search::Rows {
+                robust: &rdata,
+                smooth: &sdata,
+                fine: &wdata,
+            };
+            // A candidate must beat the model without it refitted the same way (the search is
+            // stochastic: a refit that merely finds a better point of the base set must not be
+            // credited to an effect).
+            let null = search::null_refit(&cur, &rows);
+            if null.cost < cur.cost {
+                adopt(&mut cur, null);
+            }
+            // An effect the model does not have yet, or one it carries only as a bounded
+            // background (the mesh damping): its whole range is the candidate.
+            let background = |c: Effect| {
+                cur.knobs
+                    .iter()
+                    .any(|k| k.param == Param::Effect(c) && k.floor_ok)
+            };
+            let cands: Vec<(Effect, Knob)> = opts
+                .candidates
                 .iter()
-                .any(|k| k.param == Param::Effect(c) && k.floor_ok)
-        };
-        let cands: Vec<(Effect, Knob)> = opts
-            .candidates
-            .iter()
-            .filter(|&&c| cur.params.effects.get(c) == 0.0 || background(c))
-            .map(|&c| (c, calibrate::knob(&cur.params, Param::Effect(c), max_v)))
-            .collect();
-        if cands.is_empty() {
-            break;
-        }
-        let scores = search::score(&cur, &cands, &wdata, max_v);
-        let score_list: Vec<(Effect, f64, f64)> = scores
-            .iter()
-            .map(|(e, _, c, v)| (*e, rms_nrmse(*c), *v))
-            .collect();
-        last_scores = score_list.clone();
-        let cur_poor = cx.poor(cur.cost, &wdata);
-        let take = if cur_poor {
-            scores.len()
-        } else {
-            opts.refit_top
-        };
-        let top: Vec<Effect> = scores.iter().take(take).map(|x| x.0).collect();
-        let refitted: Vec<&(Effect, Knob, f64, f64)> = scores
-            .iter()
-            .filter(|x| top.contains(&x.0) || top.iter().any(|&t| kin(t).contains(&x.0)))
-            .collect();
-        // The file's values with the effects added so far: a second start when a missing
-        // effect has dragged the current fit off (to a bound, or far above the floor).
-        let mut from_file = nominal;
-        for kn in &cur.knobs {
-            if let Param::Effect(added) = kn.param {
-                from_file.effects.set(added, cur.params.effects.get(added));
+                .filter(|&&c| cur.params.effects.get(c) == 0.0 || background(c))
+                .map(|&c| (c, calibrate::knob(&cur.params, Param::Effect(c), max_v)))
+                .collect();
+            if cands.is_empty() {
+                break;
             }
-        }
-        let cur_bounds = calibrate::at_bounds(&cur);
-        let starts = if cur_poor || !cur_bounds.is_empty() {
-            vec![cur.params, from_file]
-        } else {
-            vec![cur.params]
-        };
-        let mut local = search::local_refits(&cx, &cur, &refitted, &starts, &rows);
-        search::kin_starts(&cx, &cur, &mut local, &rows);
-        let alts = search::structural_refits(&cx, &local, cur_poor, &from_file);
-        let judged = judge::judge(&cx, &cur, &wdata, local, alts, &cur_bounds);
-        let class = judge::with_plausible_kin(&cx, &cur, &judged, judge::class(&judged, opts));
-        let Some(acc) = judge::accept(&cx, &cur, &judged, &class, &mut rejected) else {
-            for j in judged.iter().filter(|j| j.admissible.is_err()) {
-                rejected.push(Rejection {
-                    effect: j.effect,
-                    value: j.value,
-                    nrmse_after: rms_nrmse(j.fit.cost),
-                    reason: j.admissible.clone().err().unwrap_or_default(),
-                });
-            }
-            rejected.sort_by(|a, b| a.nrmse_after.total_cmp(&b.nrmse_after));
-            // Before giving up, settle the current model once more from where it is, globally:
-            // a base bent by a missing effect can sit in a basin from which no single
-            // candidate's refit climbs out, and a better basin changes what the candidates
-            // see.
-            if !resettled {
-                resettled = true;
-                let (g, w) = cx.settle(&cur.params, &cur.knobs, true);
-                // A model that misses its own predictable rows grossly (NRMSE above
-                // `poor_ratio` times their floor) where the settle from it follows its own
-                // is stuck: the rows both keep leave out the very rows it misses, and it can
-                // win there (second_mode/1 of the foreign suite, second pass: 0.23 on its own
-                // rows, 0.029 against 0.033 on the rows both keep). Only here, where the
-                // incumbent has come through a search that found nothing: between the two
-                // fresh base settles the same rule picked the wrong basin (tach_gain/1, whose
-                // seed at 2.7 times the floor on its own rows is the right one).
-                // (Each fit's cost is its plain cost on its own rows.)
-                let stuck = cx.poor(cur.cost, &wdata) && !cx.poor(g.cost, &w);
-                let (c2, w2, better) = if stuck {
-                    (g, w, true)
-                } else {
-                    better_on_common((cur.clone(), wdata.clone()), (g, w), data)
-                };
-                if better {
-                    adopt(&mut cur, c2);
-                    wdata = w2;
-                    rejected.clear();
-                    continue;
+            let scores = search::score(&cur, &cands, &wdata, max_v);
+            let score_list: Vec<(Effect, f64, f64)> = scores
+                .iter()
+                .map(|(e, _, c, v)| (*e, rms_nrmse(*c), *v))
+                .collect();
+            last_scores = score_list.clone();
+            let cur_poor = cx.poor(cur.cost, &wdata);
+            let take = if cur_poor {
+                scores.len()
+            } else {
+                opts.refit_top
+            };
+            let top: Vec<Effect> = scores.iter().take(take).map(|x| x.0).collect();
+            let refitted: Vec<&(Effect, Knob, f64, f64)> = scores
+                .iter()
+                .filter(|x| top.contains(&x.0) || top.iter().any(|&t| kin(t).contains(&x.0)))
+                .collect();
+            // The file's values with the effects added so far: a second start when a missing
+            // effect has dragged the current fit off (to a bound, or far above the floor).
+            let mut from_file = nominal;
+            for kn in &cur.knobs {
+                if let Param::Effect(added) = kn.param {
+                    from_file.effects.set(added, cur.params.effects.get(added));
                 }
             }
-            break;
-        };
-        rejected.clear();
-        let (i, ho) = (acc.index, acc.held_out);
-        let Some(chosen) = judged.get(i) else { break };
-        // The class less the members the validation record told apart from the choice.
-        let others: Vec<(Effect, f64)> = class
-            .iter()
-            .filter(|&&x| x != i && !acc.told_apart.iter().any(|t| t.0 == x))
-            .filter_map(|&x| judged.get(x).map(|j| (j.effect, j.value)))
-            .collect();
-        let separate_by = others
-            .first()
-            .map(|(o, _)| separating_measurement(chosen.effect, *o, &first.output))
-            .unwrap_or_default();
-        // The effect can change where the model is predictable (mesh damping calms rattle):
-        // settle again, locally.
-        let (fit, w) = cx.settle(&chosen.fit.params, &chosen.fit.knobs, true);
-        let (fit, w, _) =
-            better_on_common((chosen.fit.clone(), chosen.own.clone()), (fit, w), data);
-        // Before and after on the rows both models keep (each model's own rows differ: the
-        // two numbers on different rows can even read as a step backwards).
-        let both = common_rows(data, &wdata, &w);
-        let nrmse_before = rms_nrmse(calibrate::cost(&cur.params, &both));
-        let nrmse_after_step = rms_nrmse(calibrate::cost(&fit.params, &both));
-        wdata = w;
-        let idx = fit.knobs.len() - 1;
-        steps.push(Step {
-            effect: chosen.effect,
-            value: fit.values.get(idx).copied().unwrap_or(f64::NAN),
-            std_error: fit.std_errors.get(idx).copied().unwrap_or(f64::NAN),
-            nrmse_before,
-            nrmse_after: nrmse_after_step,
-            delta_bic: chosen.delta_bic,
-            scores: score_list,
-            partial: false,
-            indistinguishable_from: others,
-            separate_by,
-            held_out: ho,
-            told_apart: acc.told_apart.into_iter().map(|t| t.1).collect(),
-        });
-        cur = fit;
-        if let Some(r) = judge::backward_step(&cx, &cur, &wdata, &steps, chosen.effect) {
-            let st = steps.remove(r.step);
-            rejected.push(Rejection {
-                effect: st.effect,
-                value: st.value,
-                nrmse_after: rms_nrmse(r.without.cost),
-                reason: r.why,
+            let cur_bounds = calibrate::at_bounds(&cur);
+            let starts = if cur_poor || !cur_bounds.is_empty() {
+                vec![cur.params, from_file]
+            } else {
+                vec![cur.params]
+            };
+            let mut local = search::local_refits(&cx, &cur, &refitted, &starts, &rows);
+            search::kin_starts(&cx, &cur, &mut local, &rows);
+            let alts = search::structural_refits(&cx, &local, cur_poor, &from_file);
+            let judged = judge::judge(&cx, &cur, &wdata, local, alts, &cur_bounds);
+            let class = judge::with_plausible_kin(&cx, &cur, &judged, judge::class(&judged, opts));
+            let mut acc = judge::accept(&cx, &cur, &judged, &class, &mut rejected, true);
+            if acc.is_none() {
+                for j in judged.iter().filter(|j| j.admissible.is_err()) {
+                    rejected.push(Rejection {
+                        effect: j.effect,
+                        value: j.value,
+                        nrmse_after: rms_nrmse(j.fit.cost),
+                        reason: j.admissible.clone().err().unwrap_or_default(),
+                    });
+                }
+                rejected.sort_by(|a, b| a.nrmse_after.total_cmp(&b.nrmse_after));
+                // Before giving up, once per search: the best candidate that holds on the
+                // estimation record's held-out segments, though the validation record refused
+                // it, taken provisionally ([`Provisional`]) — first, from the model that refused
+                // it (from a resettled one the next effect can fall short where it would not).
+                if !provisional_used && cx.validation.is_some() {
+                    let mut ignored = Vec::new();
+                    acc = judge::accept(&cx, &cur, &judged, &class, &mut ignored, false);
+                    if let Some(j) = acc.as_ref().and_then(|a| judged.get(a.index)) {
+                        provisional_used = true;
+                        provisional = Some(Provisional {
+                            taken: Rejection {
+                                effect: j.effect,
+                                value: j.value,
+                                nrmse_after: rms_nrmse(j.fit.cost),
+                                reason: String::new(),
+                            },
+                            cur: cur.clone(),
+                            wdata: wdata.clone(),
+                            steps: steps.clone(),
+                            rejected: rejected.clone(),
+                            last_scores: last_scores.clone(),
+                            resettled,
+                            rounds,
+                            steps_after: 0,
+                        });
+                    }
+                }
+                if acc.is_none() {
+                    // Before giving up, settle the current model once more from where it is,
+                    // globally ([`resettle`]).
+                    if !resettled {
+                        resettled = true;
+                        if let Some((c2, w2)) = resettle(&cx, &cur, &wdata, data) {
+                            adopt(&mut cur, c2);
+                            wdata = w2;
+                            rejected.clear();
+                            continue;
+                        }
+                    }
+                    break;
+                }
+            }
+            let Some(acc) = acc else { break };
+            if let Some(pv) = provisional.as_mut() {
+                pv.steps_after += 1;
+            }
+            rejected.clear();
+            let (i, ho) = (acc.index, acc.held_out);
+            let Some(chosen) = judged.get(i) else { break };
+            // The class less the members the validation record told apart from the choice.
+            let others: Vec<(Effect, f64)> = class
+                .iter()
+                .filter(|&&x| x != i && !acc.told_apart.iter().any(|t| t.0 == x))
+                .filter_map(|&x| judged.get(x).map(|j| (j.effect, j.value)))
+                .collect();
+            let separate_by = others
+                .first()
+                .map(|(o, _)| separating_measurement(chosen.effect, *o, &first.output))
+                .unwrap_or_default();
+            // The effect can change where the model is predictable (mesh damping calms rattle):
+            // settle again, locally.
+            let (fit, w) = cx.settle(&chosen.fit.params, &chosen.fit.knobs, true);
+            let (fit, w, _) =
+                better_on_common((chosen.fit.clone(), chosen.own.clone()), (fit, w), data);
+            // Before and after on the rows both models keep (each model's own rows differ: the
+            // two numbers on different rows can even read as a step backwards).
+            let both = common_rows(data, &wdata, &w);
+            let nrmse_before = rms_nrmse(calibrate::cost(&cur.params, &both));
+            let nrmse_after_step = rms_nrmse(calibrate::cost(&fit.params, &both));
+            wdata = w;
+            let idx = fit.knobs.len() - 1;
+            steps.push(Step {
+                effect: chosen.effect,
+                value: fit.values.get(idx).copied().unwrap_or(f64::NAN),
+                std_error: fit.std_errors.get(idx).copied().unwrap_or(f64::NAN),
+                nrmse_before,
+                nrmse_after: nrmse_after_step,
+                delta_bic: chosen.delta_bic,
+                scores: score_list,
+                partial: false,
+                indistinguishable_from: others,
+                separate_by,
+                held_out: ho,
+                told_apart: acc.told_apart.into_iter().map(|t| t.1).collect(),
             });
-            adopt(&mut cur, r.without);
-            wdata = r.own;
+            cur = fit;
+            if let Some(r) = judge::backward_step(&cx, &cur, &wdata, &steps, chosen.effect) {
+                let st = steps.remove(r.step);
+                rejected.push(Rejection {
+                    effect: st.effect,
+                    value: st.value,
+                    nrmse_after: rms_nrmse(r.without.cost),
+                    reason: r.why,
+                });
+                adopt(&mut cur, r.without);
+                wdata = r.own;
+            }
         }
+        // A provisional step refuted goes back out, and the search resumes where it was taken,
+        // as though it had not been: the resettle next.
+        if let Some(pv) = provisional.take() {
+            if let Some(why) = pv.refuted(&cx, &cur) {
+                cur = pv.cur;
+                wdata = pv.wdata;
+                steps = pv.steps;
+                rejected = pv.rejected;
+                last_scores = pv.last_scores;
+                resettled = pv.resettled;
+                rounds = pv.rounds;
+                taken_back = Some(Rejection {
+                    reason: why,
+                    ..pv.taken
+                });
+                if !resettled {
+                    resettled = true;
+                    if let Some((c2, w2)) = resettle(&cx, &cur, &wdata, data) {
+                        adopt(&mut cur, c2);
+                        wdata = w2;
+                        rejected.clear();
+                        continue 'search;
+                    }
+                }
+            }
+        }
+        break;
+    }
+    if let Some(t) = taken_back {
+        rejected.insert(0, t);
     }
     if finish {
         if let Some((fit, w)) = fine_search(&cx, &cur, &wdata) {
@@ -741,6 +793,92 @@ fn diagnose_records(
             rejected,
         },
     )
+}
+
+/// Settle the current model `cur` (on its rows `wdata`) once more from where it is,
+/// globally, before the search gives up: a base bent by a missing effect can sit in a basin
+/// from which no single candidate's refit climbs out, and a better basin changes what the
+/// candidates see. The settled model with its rows when it is better, else `None`.
+fn resettle(cx: &Ctx, cur: &Fit, wdata: &[Data], data: &[Data]) -> Option<(Fit, Vec<Data>)> {
+    let (g, w) = cx.settle(&cur.params, &cur.knobs, true);
+    // A model that misses its own predictable rows grossly (NRMSE above `poor_ratio` times
+    // their floor) where the settle from it follows its own is stuck: the rows both keep
+    // leave out the very rows it misses, and it can win there (second_mode/1 of the foreign
+    // suite, second pass: 0.23 on its own rows, 0.029 against 0.033 on the rows both keep).
+    // Only here, where the incumbent has come through a search that found nothing: between
+    // the two fresh base settles the same rule picked the wrong basin (tach_gain/1, whose
+    // seed at 2.7 times the floor on its own rows is the right one). (Each fit's cost is its
+    // plain cost on its own rows.)
+    if cx.poor(cur.cost, wdata) && !cx.poor(g.cost, &w) {
+        return Some((g, w));
+    }
+    let (c2, w2, better) = better_on_common((cur.clone(), wdata.to_vec()), (g, w), data);
+    better.then_some((c2, w2))
+}
+
+/// A step the search took against the validation record's refusal, and the state to return
+/// to. When the search would stop with a material residual and the best candidate holds on
+/// the estimation record's held-out segments but is worse on the validation record, the
+/// refusal may be the second missing effect's doing: the validation record carries it too,
+/// and a base calibrated without both can be a stand-in (load inertia −28 to −96 %, a
+/// friction ×7–×10 on the foreign suite's pair/12–14) on which the right first effect makes
+/// the validation record worse (pair/12: input_delay at the unit's value, validation NRMSE
+/// 0.26 → 0.38; with load_viscous added after it, 0.022 at the floor 0.020). The step is
+/// taken once per search, from the model that refused it, before the search settles that
+/// model once more ([`resettle`]: from the resettled model the second effect fell short of
+/// the materiality rule on pair/12), and kept only when at least one more step follows it
+/// and the validation record then agrees ([`Provisional::refuted`]); otherwise the search
+/// returns to where the step was taken and goes on as though it had not been.
+struct Provisional {
+    /// The step taken, as it is reported when it goes back out.
+    taken: Rejection,
+    cur: Fit,
+    wdata: Vec<Data>,
+    steps: Vec<Step>,
+    rejected: Vec<Rejection>,
+    last_scores: Vec<(Effect, f64, f64)>,
+    resettled: bool,
+    rounds: usize,
+    /// Steps taken since (the provisional one included).
+    steps_after: usize,
+}
+
+impl Provisional {
+    /// Why the provisional steps go back out, or `None` when they stand: they stand when a
+    /// step followed the provisional one and the model reached explains at least
+    /// [`Options::min_excess_share`] of the validation error above its floor that the
+    /// model before them left (on the rows both keep).
+    fn refuted(&self, cx: &Ctx, now: &Fit) -> Option<String> {
+        let judged = judge::on_validation(
+            cx,
+            cx.val_weighted(&self.cur.params).as_ref(),
+            cx.val_weighted(&now.params).as_ref(),
+            &self.cur.params,
+            &now.params,
+        );
+        let share = judged.map(|(a, b, f)| validation_share(a, b, f));
+        match share {
+            Some(s) if self.steps_after >= 2 && s >= cx.opts.min_excess_share => None,
+            Some(s) => Some(format!(
+                "held on the estimation record's held-out segments but was worse on the validation record; taken provisionally, with {} step(s) after it the validation record's error above its floor was {:.0} % explained (needs {:.0} % and a second step): taken back out",
+                self.steps_after.saturating_sub(1),
+                100.0 * s,
+                100.0 * cx.opts.min_excess_share
+            )),
+            None => Some("taken provisionally without a validation record".to_string()),
+        }
+    }
+}
+
+/// The share of the validation error above its floor `f` that a model at NRMSE `b`
+/// explains against one at `a` (0 when `a` is at the floor or below it).
+fn validation_share(a: f64, b: f64, f: f64) -> f64 {
+    let (ea, eb) = (a * a - f * f, (b * b - f * f).max(0.0));
+    if ea > 0.0 {
+        1.0 - eb / ea
+    } else {
+        0.0
+    }
 }
 
 /// What a pass found, before it is concluded ([`conclude`]).
@@ -883,6 +1021,22 @@ mod tests {
     use super::*;
     use crate::calibrate::tests::data_of;
     use geared_servo::REFERENCE;
+
+    /// [`Provisional::refuted`]'s measure: pair/12 of the foreign suite, validation NRMSE
+    /// 0.26 before the provisional step and 0.022 after the second at a floor of 0.020, is
+    /// all but fully explained; a model worse than the one before, or one already at the
+    /// floor, explains nothing.
+    #[test]
+    fn the_validation_share_counts_only_what_lies_above_the_floor() {
+        let s = validation_share(0.26, 0.022, 0.020);
+        assert!(s > 0.99 && s < 1.0, "{s}");
+        assert!(validation_share(0.26, 0.02, 0.02) == 1.0);
+        assert!(validation_share(0.26, 0.30, 0.02) < 0.0);
+        assert!(validation_share(0.02, 0.01, 0.02) == 0.0);
+        // 0.26 -> 0.22: (0.0676 - 0.0484) / 0.0672 of the excess, under the 30 % rule.
+        let s = validation_share(0.26, 0.22, 0.02);
+        assert!(s > 0.28 && s < 0.29, "{s}");
+    }
 
     /// Gaussian noise of standard deviation `s`, deterministic (xorshift, Box–Muller).
     fn noise(n: usize, s: f64) -> Vec<f64> {
