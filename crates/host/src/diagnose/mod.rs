@@ -675,14 +675,16 @@ fn diagnose_records(
                 if acc.is_none() {
                     // Before giving up, settle the current model once more from where it is,
                     // globally ([`resettle`]).
-                    if !resettled {
-                        resettled = true;
-                        if let Some((c2, w2)) = resettle(&cx, &cur, &wdata, data) {
-                            adopt(&mut cur, c2);
-                            wdata = w2;
-                            rejected.clear();
-                            continue;
-                        }
+                    let moved = resettle_once(
+                        &cx,
+                        data,
+                        &mut resettled,
+                        &mut cur,
+                        &mut wdata,
+                        &mut rejected,
+                    );
+                    if moved {
+                        continue;
                     }
                     break;
                 }
@@ -758,14 +760,15 @@ fn diagnose_records(
                     reason: why,
                     ..pv.taken
                 });
-                if !resettled {
-                    resettled = true;
-                    if let Some((c2, w2)) = resettle(&cx, &cur, &wdata, data) {
-                        adopt(&mut cur, c2);
-                        wdata = w2;
-                        rejected.clear();
-                        continue 'search;
-                    }
+                if resettle_once(
+                    &cx,
+                    data,
+                    &mut resettled,
+                    &mut cur,
+                    &mut wdata,
+                    &mut rejected,
+                ) {
+                    continue 'search;
                 }
             }
         }
@@ -814,6 +817,29 @@ fn resettle(cx: &Ctx, cur: &Fit, wdata: &[Data], data: &[Data]) -> Option<(Fit, 
     }
     let (c2, w2, better) = better_on_common((cur.clone(), wdata.to_vec()), (g, w), data);
     better.then_some((c2, w2))
+}
+
+/// The search's one [`resettle`]: unless it has run already (`resettled`), it runs, and a
+/// better model it finds replaces `cur` with its rows `wdata` (the round's `rejected`
+/// cleared: the next round judges afresh). Whether the search goes on from a new model.
+fn resettle_once(
+    cx: &Ctx,
+    data: &[Data],
+    resettled: &mut bool,
+    cur: &mut Fit,
+    wdata: &mut Vec<Data>,
+    rejected: &mut Vec<Rejection>,
+) -> bool {
+    if std::mem::replace(resettled, true) {
+        return false;
+    }
+    let Some((fit, w)) = resettle(cx, cur, wdata, data) else {
+        return false;
+    };
+    adopt(cur, fit);
+    *wdata = w;
+    rejected.clear();
+    true
 }
 
 /// A step the search took against the validation record's refusal, and the state to return
