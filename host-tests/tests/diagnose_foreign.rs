@@ -3,8 +3,8 @@
 //! kinds (clean, each effect alone, a pair, a structural mode outside the library) times three
 //! draws. Prints one line per case and a summary, then checks the issue's requirements:
 //! at least 90 % of verdicts right, no effect added on a clean record, recovered values (the
-//! final model's) within 30 % of the truth (after the resistance scale), and a calibrated NRMSE within 1.2 times that
-//! of the true parameters on the estimation record (on the rows `diagnose` keeps; for a hidden
+//! final model's) within 30 % of the truth (after the resistance scale), and a calibrated
+//! NRMSE within 1.2 times that of the true parameters on the estimation record (on the rows `diagnose` keeps; for a hidden
 //! effect the records cannot show and that is rightly not claimed, no worse than the model
 //! without it refitted from the truth — the truth itself is then out of the model's reach).
 //! A tachometer gain near the one the unit's own motor constants make
@@ -248,7 +248,8 @@ struct Row {
 // (`GS_FOREIGN_CASES=tach_lag/0,pair/1` for a subset; `GS_FOREIGN_DRAWS=3..6` for other
 // draws: 47 of 48 there on 2026-11-27, one bar missed; `GS_FOREIGN_DRAWS=9..12`: 42 of 48
 // there the same day when fresh, two bars missed; 46 of 48 and every bar met on 2026-11-28
-// after three judge changes made on them, so they are no longer held out; draws 12–14 are).
+// after three judge changes made on them, so they are no longer held out; draws 12–14 and
+// 15–17 have since been used too (docs/diagnose.md); draws 18–20 are held out).
 #[test]
 #[ignore = "issue 12 acceptance suite: 47/48 verdicts right, one bar missed (stiction_ratio/1), 33 min, beyond CI's budget; run with --ignored"]
 fn diagnose_names_effects_in_records_of_the_independent_reference() {
@@ -446,16 +447,18 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
             c.validation_floor,
             wall.as_secs_f64()
         );
-        for s in out.steps.iter().filter(|s| s.effect == Effect::TachGain) {
-            let hidden = c.expected.iter().any(|&(e, _)| e == Effect::TachGain);
-            if !hidden {
-                eprintln!(
-                    "    tach_gain {:.4e}: {} the unit's own tachometer gain error (its tachometer and back-EMF constants: {:.4e})",
-                    final_value(&out, s),
-                    if is_unit_property(c, &out, s) { "is" } else { "is not" },
-                    c.unit_tach_gain()
-                );
-            }
+        let hidden_gain = c.expected.iter().any(|&(e, _)| e == Effect::TachGain);
+        for s in out
+            .steps
+            .iter()
+            .filter(|s| s.effect == Effect::TachGain && !hidden_gain)
+        {
+            eprintln!(
+                "    tach_gain {:.4e}: {} the unit's own tachometer gain error (its tachometer and back-EMF constants: {:.4e})",
+                final_value(&out, s),
+                if is_unit_property(c, &out, s) { "is" } else { "is not" },
+                c.unit_tach_gain()
+            );
         }
         for (e, got, want, err, added) in &rec {
             eprintln!(
