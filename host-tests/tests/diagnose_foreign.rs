@@ -248,16 +248,17 @@ struct Row {
 // Issue 12's acceptance test (2026-11-27: 47 of 48 verdicts right, every value within 30 %,
 // nothing added on a clean unit; the final NRMSE over its bar on stiction_ratio/1 and
 // gravity_torque/1, 1.33x and 1.21x the truth's on their rows, so it fails on the bar). At
-// 33 min on 2 cores it is beyond CI's budget (docs/diagnose.md, "On records the emulator did
-// not make"). Run it with
+// about an hour on 2 cores (52 min for 43 cases of draws 15–17 on 2026-11-28) it is beyond
+// CI's budget (docs/diagnose.md, "On records the emulator did not make"). Run it with
 // `cargo test --release -p geared-servo-host-tests --test diagnose_foreign -- --ignored --nocapture`
 // (`GS_FOREIGN_CASES=tach_lag/0,pair/1` for a subset; `GS_FOREIGN_DRAWS=3..6` for other
 // draws: 47 of 48 there on 2026-11-27, one bar missed; `GS_FOREIGN_DRAWS=9..12`: 42 of 48
 // there the same day when fresh, two bars missed; 46 of 48 and every bar met on 2026-11-28
-// after three judge changes made on them, so they are no longer held out; draws 12–14 and
-// 15–17 have since been used too (docs/diagnose.md); draws 18–20 are held out).
+// after three judge changes made on them, so they are no longer held out; draws 12–14,
+// 15–17 and 18–20 have since been run too (README.md's table, docs/diagnose.md); draws
+// 21–23 are held out).
 #[test]
-#[ignore = "issue 12 acceptance suite: 47/48 verdicts right, one bar missed (stiction_ratio/1), 33 min, beyond CI's budget; run with --ignored"]
+#[ignore = "issue 12 acceptance suite (draws 0-2, 48 cases, about an hour on 2 cores): beyond CI's budget; scores in README.md and docs/diagnose.md; run with --ignored"]
 fn diagnose_names_effects_in_records_of_the_independent_reference() {
     let t_all = Instant::now();
 
