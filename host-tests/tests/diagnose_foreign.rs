@@ -669,13 +669,17 @@ fn the_unit_in_the_files_constants_is_exact() {
 }
 
 /// The prior where the validation record cannot decide (`judge::with_plausible_kin`): on
-/// motor_viscous/6 of the fresh draws the stepped sine alone prefers a tachometer gain error
-/// of a third, with every mechanical quantity rescaled to match (ΔBIC −5080 against −2814 for
-/// the motor friction that is there), a value outside the gain error's plausible range; the
-/// validation record does not prefer it, so the plausible motor friction is named, within
-/// [`VALUE_TOL`], and the gain error is reported as what it is: a better fit of the estimation
-/// record at an implausible value, told apart by the validation record. Records of the
-/// independent reference integrator, every parameter perturbed, rattle included.
+/// motor_viscous/6 of the fresh draws the stepped sine alone can prefer a tachometer gain
+/// error of a third, with every mechanical quantity rescaled to match (ΔBIC −5080 against
+/// −2814 for the motor friction that is there, before the search restarted from both places
+/// of the background damping), a value outside the gain error's plausible range. The
+/// plausible motor friction is named, within [`VALUE_TOL`], and the gain error is not. It is
+/// reported as told apart (a better fit of the estimation record at an implausible value,
+/// refused by the validation record) when, and only when, its refit beat the motor friction's
+/// on the estimation record: since the restart from both places the motor friction's refit
+/// beats it there (NRMSE 0.0219 against 0.0264 on their common rows), so no such line is
+/// owed; if one is given, its value must be the implausible one. Records of the independent
+/// reference integrator, every parameter perturbed, rattle included.
 #[test]
 fn an_implausible_tachometer_gain_gives_way_to_the_friction_that_is_there() {
     let c = foreign::case(Kind::Single(Effect::MotorViscous), 6).unwrap();
@@ -693,12 +697,24 @@ fn an_implausible_tachometer_gain_gives_way_to_the_friction_that_is_there() {
         "{} for {want}",
         step.value
     );
-    let gain = step
+    assert!(
+        step.indistinguishable_from
+            .iter()
+            .all(|&(e, v)| e != Effect::TachGain || v.abs() > Effect::TachGain.plausible_range().1),
+        "a plausible tachometer gain error tied with the friction: {}",
+        fmt_steps(&out)
+    );
+    if let Some(gain) = step
         .told_apart
         .iter()
         .find(|r| r.effect == Effect::TachGain)
-        .expect("the tachometer gain error reported as told apart");
-    assert!(gain.value.abs() > Effect::TachGain.plausible_range().1);
+    {
+        assert!(
+            gain.value.abs() > Effect::TachGain.plausible_range().1,
+            "the gain error told apart at a plausible value: {}",
+            gain.value
+        );
+    }
 }
 
 /// The stuck rule of `diagnose` (its last resettle, `diagnose/mod.rs`): a model that misses

@@ -323,6 +323,12 @@ pub(super) fn judge(
                 "switched off again it keeps {:.0} % of its gain: the other parameters made it",
                 100.0 * (1.0 - own_share.max(0.0))
             ))
+        } else if fit.cost > cur.cost {
+            Err(format!(
+                "its refit follows its own predictable rows to NRMSE {:.4}, worse than the current model follows its own ({:.4})",
+                fit.cost.sqrt(),
+                cur.cost.sqrt()
+            ))
         } else if imp > 1.0 {
             let (lo, hi) = e.plausible_range();
             Err(format!(

@@ -440,22 +440,34 @@ impl<'a> Ctx<'a> {
     }
 }
 
-/// The file's values with the effects `cur` added at its values: the start of a search
-/// from afar (a second start of the candidates' refits, their global refits). The base set
-/// is at `start`, the base calibration's own start — the background mesh damping
-/// ([`calibrate::BACKGROUND_DAMPING`]) included, which belongs to the base set, not to the
-/// effects added: a missing effect drags it as it drags the inertias (pair/13 of the foreign
-/// suite, whose load's viscous friction is missing, takes it to the top of its range, 1.8e-2
-/// for the unit's 2.9e-3), and a start from afar that kept it there found the motor's
-/// viscous friction where the unit has the load's.
-fn restart_point(start: &ActuatorParams, cur: &Fit) -> ActuatorParams {
+/// The starts of a search from afar (a second start of the candidates' refits, their global
+/// refits): the file's values with the effects `cur` added at its values, the background
+/// mesh damping ([`calibrate::BACKGROUND_DAMPING`]) once where the base calibration started
+/// it (`start`) and once where the current fit took it (the two coincide when it has not
+/// moved). A missing effect drags the background damping as it drags the inertias, and
+/// which of the two is the better start depends on the unit: pair/13 of the foreign suite,
+/// whose load's viscous friction is missing, takes it to the top of its range (1.8e-2 for
+/// the unit's 2.9e-3), and a start that kept it there found the motor's viscous friction
+/// where the unit has the load's; tach_lag/16 and input_delay/16 find their effect only from
+/// where their current fits took it.
+fn restart_points(start: &ActuatorParams, cur: &Fit) -> Vec<ActuatorParams> {
     let mut p = *start;
     for kn in cur.knobs.iter().filter(|k| !k.floor_ok) {
         if let Param::Effect(added) = kn.param {
             p.effects.set(added, cur.params.effects.get(added));
         }
     }
-    p
+    let mut q = p;
+    for kn in cur.knobs.iter().filter(|k| k.floor_ok) {
+        if let Param::Effect(bg) = kn.param {
+            q.effects.set(bg, cur.params.effects.get(bg));
+        }
+    }
+    if q == p {
+        vec![p]
+    } else {
+        vec![p, q]
+    }
 }
 
 /// `cur` replaced by `fit`, keeping what `cur` says of the whole calibration (its start
@@ -635,10 +647,12 @@ fn diagnose_records(
                 .collect();
             // The file's values with the effects added so far: a second start when a missing
             // effect has dragged the current fit off (to a bound, or far above the floor).
-            let from_file = restart_point(&start, &cur);
+            let from_file = restart_points(&start, &cur);
             let cur_bounds = calibrate::at_bounds(&cur);
-            let starts = if cur_poor || !cur_bounds.is_empty() {
-                vec![cur.params, from_file]
+            let starts: Vec<ActuatorParams> = if cur_poor || !cur_bounds.is_empty() {
+                std::iter::once(cur.params)
+                    .chain(from_file.iter().copied())
+                    .collect()
             } else {
                 vec![cur.params]
             };
@@ -1061,11 +1075,12 @@ mod tests {
     use crate::calibrate::tests::data_of;
     use geared_servo::REFERENCE;
 
-    /// [`restart_point`]: the base set and the background damping at the base calibration's
-    /// start, whatever the current fit made of them; an effect added (the mesh damping too,
-    /// once added as an effect on its full range) at the current fit's value.
+    /// [`restart_points`]: the base set at the base calibration's start, whatever the current
+    /// fit made of it; the background damping once there and once where the current fit
+    /// took it; an effect added (the mesh damping too, once added as an effect on its full
+    /// range) at the current fit's value, in one start only then.
     #[test]
-    fn a_restart_from_the_file_keeps_the_effects_added_not_the_background() {
+    fn a_restart_from_the_file_keeps_the_effects_added_and_tries_the_background_both_ways() {
         let file = calibrate::with_measured_stiffness(&REFERENCE).unwrap();
         let start = calibrate::with_background_damping(&file, 5.0).unwrap();
         let bg = calibrate::background_damping_knob(&file, 5.0);
@@ -1088,15 +1103,26 @@ mod tests {
         };
         let load = calibrate::knob(&file, Param::LoadInertia, 5.0);
         let cur = fit(vec![load.clone(), bg.clone(), delay.clone()], p);
-        let r = restart_point(&start, &cur);
-        assert_eq!(r.load.inertia_kg_m2, start.load.inertia_kg_m2);
-        assert_eq!(r.effects.mesh_damping, start.effects.mesh_damping);
+        let r = restart_points(&start, &cur);
+        assert_eq!(r.len(), 2);
         assert!(start.effects.mesh_damping < bg.hi);
-        assert_eq!(r.effects.input_delay, 1e-3);
+        for q in &r {
+            assert_eq!(q.load.inertia_kg_m2, start.load.inertia_kg_m2);
+            assert_eq!(q.effects.input_delay, 1e-3);
+        }
+        assert_eq!(r[0].effects.mesh_damping, start.effects.mesh_damping);
+        assert_eq!(r[1].effects.mesh_damping, bg.hi);
+        // Where the background has not moved, one start.
+        let mut still = p;
+        still.effects.mesh_damping = start.effects.mesh_damping;
+        let cur = fit(vec![load.clone(), bg.clone(), delay.clone()], still);
+        assert_eq!(restart_points(&start, &cur).len(), 1);
         // The mesh damping added as an effect is carried like any other.
         let full = calibrate::knob(&file, md, 5.0);
         let cur = fit(vec![load, full, delay], p);
-        assert_eq!(restart_point(&start, &cur).effects.mesh_damping, bg.hi);
+        let r = restart_points(&start, &cur);
+        assert_eq!(r.len(), 1);
+        assert_eq!(r[0].effects.mesh_damping, bg.hi);
     }
 
     /// [`Provisional::refuted`]'s measure: pair/12 of the foreign suite, validation NRMSE

@@ -156,7 +156,8 @@ pub(super) fn kin_starts(cx: &Ctx, cur: &Fit, local: &mut [Refit], rows: &Rows) 
 /// When the fit is poor, a missing effect has bent it (friction standing in for viscous
 /// damping, say), and a local refit stays in that basin. The candidates whose local refits
 /// did best are then calibrated globally, like the base set, from the file's values
-/// (`from_file`, with the effects added so far) with the effect at its refitted value.
+/// (each start of `from_file`, with the effects added so far: `restart_points`) with the
+/// effect at its refitted value.
 /// When it is not poor, the kin of the best local refit get the global search: a kin can
 /// need every calibrated parameter rescaled (a tachometer gain against motor friction),
 /// which a local refit does not reach, and a tie must be found to be reported. A poor fit
@@ -166,7 +167,7 @@ pub(super) fn structural_refits(
     cx: &Ctx,
     local: &[Refit],
     cur_poor: bool,
-    from_file: &ActuatorParams,
+    from_file: &[ActuatorParams],
 ) -> Vec<Vec<Point>> {
     let mut order: Vec<usize> = (0..local.len()).collect();
     order.sort_by(|&a, &b| local[a].fit.cost.total_cmp(&local[b].fit.cost));
@@ -185,12 +186,16 @@ pub(super) fn structural_refits(
         .map(|(_, &i)| i)
         .collect();
     let mut alts: Vec<Vec<Point>> = vec![Vec::new(); local.len()];
-    let globals: Vec<(usize, Point)> = structural
+    let tasks: Vec<(usize, &ActuatorParams)> = structural
+        .iter()
+        .flat_map(|&i| from_file.iter().map(move |s| (i, s)))
+        .collect();
+    let globals: Vec<(usize, Point)> = tasks
         .par_iter()
-        .filter_map(|&i| {
+        .filter_map(|&(i, start)| {
             let r = local.get(i)?;
             let k = r.knobs.last()?;
-            let mut q = *from_file;
+            let mut q = *start;
             calibrate::set(&mut q, k.param, calibrate::get(&r.fit.params, k.param));
             Some((i, Point::from(&cx.settle(&q, &r.knobs, true).0)))
         })
