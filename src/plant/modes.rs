@@ -16,13 +16,33 @@ pub(super) const SUB_STEP_PERIOD_FRACTION: f64 = 0.013;
 /// step without the whole-step check seeing it, so every step is sub-stepped.
 pub(super) const WHOLE_STEP_PERIOD_FRACTION: f64 = 0.15;
 
-/// Sub-steps per step for these parameters, and whether every step must be sub-stepped.
+/// How a step that needs sub-steps is taken ([`sub_step_plan`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct SubStepPlan {
+    /// Sub-steps per step.
+    pub(super) n_sub: usize,
+    /// Every step is sub-stepped: the step is longer than [`WHOLE_STEP_PERIOD_FRACTION`] of
+    /// the fastest period, so the whole-step check could miss an event.
+    pub(super) always: bool,
+    /// Sub-steps per block, 0 for none: each block of this many sub-steps is first tried
+    /// whole under the whole-step check, and only a block that fails it is sub-stepped. Half
+    /// the sub-steps on the whole-step path; on the always-sub-stepped path the most
+    /// sub-steps that stay within [`WHOLE_STEP_PERIOD_FRACTION`] of the fastest period,
+    /// spread evenly over the step (the check is then as safe over a block as over a
+    /// short whole step).
+    pub(super) block: usize,
+}
+
+/// Sub-steps per step for these parameters, whether every step must be sub-stepped, and
+/// the blocks a sub-stepped step is first tried in.
 ///
 /// The fastest mechanical frequency is that of the gears in contact with both bodies free,
 /// stiffened by the spring to ground (hinge and linearised gravity, `k_g`):
 /// `√(k (1/J_L + 1/(N² J_m)) + k_g/J_L) / 2π` (eq. 17b with the hinge). The reference
-/// actuator at 0.5 ms gets 8 sub-steps and the whole-step path.
-pub(super) fn sub_step_plan(p: &ActuatorParams, n: f64, k: f64) -> (usize, bool) {
+/// actuator at 0.5 ms gets 8 sub-steps, the whole-step path and two blocks (halves); at
+/// 5.625 ms (a bench record's period) 90 sub-steps in blocks of 10, every step
+/// sub-stepped.
+pub(super) fn sub_step_plan(p: &ActuatorParams, n: f64, k: f64) -> SubStepPlan {
     let jm = p.motor.inertia_kg_m2;
     let jl = p.load.inertia_kg_m2;
     let w2 = k * (1.0 / jl + 1.0 / (n * n * jm)) + p.ground_stiffness_nm_per_rad() / jl;
@@ -34,7 +54,39 @@ pub(super) fn sub_step_plan(p: &ActuatorParams, n: f64, k: f64) -> (usize, bool)
     } else {
         MAX_SUB_STEPS
     };
-    (n_sub, periods > WHOLE_STEP_PERIOD_FRACTION)
+    let always = periods > WHOLE_STEP_PERIOD_FRACTION;
+    if !always {
+        let block = if n_sub % 2 == 0 { n_sub / 2 } else { 0 };
+        return SubStepPlan {
+            n_sub,
+            always,
+            block,
+        };
+    }
+    // Sub-steps that fit in the whole-step check's span, then as many blocks as that needs,
+    // of equal length; the sub-steps are rounded up to fill them (shorter, never longer)
+    // when that stays within the cap, else the last block is shorter and sub-stepped.
+    let fit = libm::floor(WHOLE_STEP_PERIOD_FRACTION * n_sub as f64 / periods);
+    if fit.is_nan() || fit < 2.0 {
+        return SubStepPlan {
+            n_sub,
+            always,
+            block: 0,
+        };
+    }
+    let fit = (fit as usize).min(n_sub);
+    let blocks = n_sub.div_ceil(fit);
+    let block = n_sub.div_ceil(blocks);
+    let n_sub = if blocks * block <= MAX_SUB_STEPS {
+        blocks * block
+    } else {
+        n_sub
+    };
+    SubStepPlan {
+        n_sub,
+        always,
+        block,
+    }
 }
 
 /// Motion state of one body within a mode: stuck by static friction, or sliding with the
@@ -487,7 +539,7 @@ mod tests {
         long_step.sample_period_s = 5.6e-3;
         for p in [REFERENCE.with_backlash_deg(0.08), with_effects, long_step] {
             let d = p.derived().unwrap();
-            let (n_sub, _) = sub_step_plan(&p, d.n_total, d.k_eq_nm_per_rad);
+            let n_sub = sub_step_plan(&p, d.n_total, d.k_eq_nm_per_rad).n_sub;
             let h = p.sample_period_s;
             for tau in [h, h / n_sub as f64] {
                 let set = mode_set(&p, d.n_total, d.k_eq_nm_per_rad, tau).unwrap();

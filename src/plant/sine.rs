@@ -77,7 +77,7 @@ impl SineDrive {
             }
             Ok(out)
         };
-        let (n_sub, _) = sub_step_plan(params, d.n_total, d.k_eq_nm_per_rad);
+        let n_sub = sub_step_plan(params, d.n_total, d.k_eq_nm_per_rad).n_sub;
         let hs = h / n_sub as f64;
         let cs = |x: f64| [libm::cos(x) as f32, libm::sin(x) as f32];
         Ok(SineDrive {

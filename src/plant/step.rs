@@ -377,18 +377,20 @@ impl Plant {
         let f = self.forcing(c, &m);
         // Only the general instance has a delay ([`Plant::step`]).
         let split = GENERAL && self.delay_frac > 0.0;
-        let s1 = if split {
-            let inp = Input {
-                v: v_early,
-                v_eff: v_late,
-                extra: Extra::Late(&self.late_v, v_late - v_early),
+        if !self.always_sub {
+            let s1 = if split {
+                let inp = Input {
+                    v: v_early,
+                    v_eff: v_late,
+                    extra: Extra::Late(&self.late_v, v_late - v_early),
+                };
+                Self::advance(&self.full, &m, f, s0, &inp)
+            } else {
+                Self::advance(&self.full, &m, f, s0, &Input::held(v_late))
             };
-            Self::advance(&self.full, &m, f, s0, &inp)
-        } else {
-            Self::advance(&self.full, &m, f, s0, &Input::held(v_late))
-        };
-        if !self.always_sub && self.consistent(c, &m, s0, &s1) {
-            return (s1, m.gear);
+            if self.consistent(c, &m, s0, &s1) {
+                return (s1, m.gear);
+            }
         }
         // The nominal context (no external torque) is rebuilt there rather than passed, and
         // the state goes in registers: nothing is stored for a call that rarely happens.
@@ -419,29 +421,31 @@ impl Plant {
         let split = self.delay_frac > 0.0;
         let (mut s, mut m, mut f) = (s0, m, f);
         let n_sub = self.sub_steps as usize;
-        // Each half of the step is first tried whole in its starting mode, with the same
-        // check as the whole step (exact within the mode; the check is only safer over half
-        // the time): the event then costs the sub-steps of one half, not of both.
-        let halves = self.halves && !split;
-        let mid = n_sub / 2;
+        // Each block of the step (its halves on the whole-step path) is first tried whole in
+        // its starting mode, with the same check as the whole step (exact within the mode;
+        // the check is only safer over less time): an event then costs the sub-steps of its
+        // block, not of the step.
+        let block = if split { 0 } else { self.block as usize };
+        // The whole step was tried and failed its check, so when every block before the
+        // last held, the last holds the event: it is sub-stepped without a try.
+        let tried_whole = !self.always_sub;
+        let mut all_held = true;
         let mut j = 0;
-        // Whether the half starting at `mid` is known to hold the event (no try there).
-        let mut second_known = false;
         while j < n_sub {
-            if halves && (j == 0 || (j == mid && !second_known)) {
-                // Opaque to the optimiser, like the sub-step transitions (no hoisting).
-                let set = core::hint::black_box(&self.half);
-                let s_h = Self::advance(set, &m, f, &s, &Input::held(v_late));
-                if self.consistent_over(c, &m, &s, &s_h, set.tau) {
-                    // No event in this half: `m` holds at its end.
-                    s = s_h;
-                    if j == mid {
-                        break;
+            if block > 0 && j % block == 0 && j + block <= n_sub {
+                let last = j + block == n_sub;
+                if !(tried_whole && all_held && last) {
+                    // Opaque to the optimiser, like the sub-step transitions (no hoisting).
+                    let set = core::hint::black_box(&self.block_set);
+                    let s_b = Self::advance(set, &m, f, &s, &Input::held(v_late));
+                    if self.consistent_over(c, &m, &s, &s_b, set.tau) {
+                        // No event in this block: `m` holds at its end.
+                        s = s_b;
+                        j += block;
+                        continue;
                     }
-                    // The event is in the second half: sub-step that.
-                    (j, second_known) = (mid, true);
-                    continue;
                 }
+                all_held = false;
             }
             // Voltage over this sub-step: the time-weighted mean where the delay's split
             // point falls inside it.
@@ -491,9 +495,11 @@ impl Plant {
             extra: Extra::Sine(&d.full, a_cos, a_sin),
         };
         let f = self.forcing(c, &m);
-        let s1 = Self::advance(&self.full, &m, f, s0, &inp);
-        if !self.always_sub && self.consistent(c, &m, s0, &s1) {
-            return s1;
+        if !self.always_sub {
+            let s1 = Self::advance(&self.full, &m, f, s0, &inp);
+            if self.consistent(c, &m, s0, &s1) {
+                return s1;
+            }
         }
         let (mut s, mut m, mut f) = (*s0, m, f);
         let (mut ac, mut asn) = (a_cos, a_sin);
