@@ -85,6 +85,37 @@ fn bench(c: &mut Criterion) {
         })
     });
     g.finish();
+
+    // A bench record's period (5.625 ms, as ../shared/data), longer than the reference's
+    // resonance period: every step is sub-stepped (90 sub-steps in blocks of 10, each block
+    // tried whole first). The non-chaotic ±10 V, 1 s square wave of plant_accuracy.rs's
+    // long-period test, 4 s. Reported per step.
+    let mut long = REFERENCE.with_backlash_deg(0.08);
+    long.sample_period_s = 0.005625;
+    let long = Plant::new(&long).unwrap();
+    let steps = (4.0 / 0.005625) as usize;
+    let volts: Vec<f32> = (0..steps)
+        .map(|k| {
+            if ((k as f64 * 0.005625 / 0.5) as usize).is_multiple_of(2) {
+                10.0
+            } else {
+                -10.0
+            }
+        })
+        .collect();
+    let mut g = c.benchmark_group("run");
+    g.throughput(Throughput::Elements(steps as u64));
+    g.bench_function("square_10V_1Hz_at_5.625ms_per_711_steps", |b| {
+        b.iter(|| {
+            let mut s = PlantState::REST;
+            let mut acc = 0.0f32;
+            for &v in &volts {
+                acc += black_box(&long).step(&mut s, black_box(v)).tach_voltage_v;
+            }
+            acc
+        })
+    });
+    g.finish();
 }
 
 criterion_group!(benches, bench);

@@ -377,20 +377,18 @@ impl Plant {
         let f = self.forcing(c, &m);
         // Only the general instance has a delay ([`Plant::step`]).
         let split = GENERAL && self.delay_frac > 0.0;
-        if !self.always_sub {
-            let s1 = if split {
-                let inp = Input {
-                    v: v_early,
-                    v_eff: v_late,
-                    extra: Extra::Late(&self.late_v, v_late - v_early),
-                };
-                Self::advance(&self.full, &m, f, s0, &inp)
-            } else {
-                Self::advance(&self.full, &m, f, s0, &Input::held(v_late))
+        let s1 = if split {
+            let inp = Input {
+                v: v_early,
+                v_eff: v_late,
+                extra: Extra::Late(&self.late_v, v_late - v_early),
             };
-            if self.consistent(c, &m, s0, &s1) {
-                return (s1, m.gear);
-            }
+            Self::advance(&self.full, &m, f, s0, &inp)
+        } else {
+            Self::advance(&self.full, &m, f, s0, &Input::held(v_late))
+        };
+        if !self.always_sub && self.consistent(c, &m, s0, &s1) {
+            return (s1, m.gear);
         }
         // The nominal context (no external torque) is rebuilt there rather than passed, and
         // the state goes in registers: nothing is stored for a call that rarely happens.
@@ -430,10 +428,13 @@ impl Plant {
         // last held, the last holds the event: it is sub-stepped without a try.
         let tried_whole = !self.always_sub;
         let mut all_held = true;
+        // Start of the next block (past the end without blocks).
+        let mut next = if block > 0 { 0 } else { n_sub };
         let mut j = 0;
         while j < n_sub {
-            if block > 0 && j % block == 0 && j + block <= n_sub {
-                let last = j + block == n_sub;
+            if j == next && j + block <= n_sub {
+                next += block;
+                let last = next == n_sub;
                 if !(tried_whole && all_held && last) {
                     // Opaque to the optimiser, like the sub-step transitions (no hoisting).
                     let set = core::hint::black_box(&self.block_set);
@@ -495,11 +496,9 @@ impl Plant {
             extra: Extra::Sine(&d.full, a_cos, a_sin),
         };
         let f = self.forcing(c, &m);
-        if !self.always_sub {
-            let s1 = Self::advance(&self.full, &m, f, s0, &inp);
-            if self.consistent(c, &m, s0, &s1) {
-                return s1;
-            }
+        let s1 = Self::advance(&self.full, &m, f, s0, &inp);
+        if !self.always_sub && self.consistent(c, &m, s0, &s1) {
+            return s1;
         }
         let (mut s, mut m, mut f) = (*s0, m, f);
         let (mut ac, mut asn) = (a_cos, a_sin);
