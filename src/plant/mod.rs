@@ -42,7 +42,7 @@
 //! mode (the twist crossed ±δ, or its Hermite interpolant grazed it; a sliding body reversed;
 //! a stuck body's torque exceeds static friction), the step is redone as exact
 //! sub-steps (each half of the step is first tried whole under the same check, so only the
-//! half holding the event is sub-stepped). A step longer than a sixth or so of the fastest
+//! half holding the event is sub-stepped). A step longer than 0.15 of the fastest
 //! mechanical period (a bench record sampled slowly) could hide an event from that check,
 //! so it is always taken in sub-steps; it too goes by blocks short enough for the check,
 //! each tried whole first. Within the sub-step where an event falls, its
