@@ -7,6 +7,17 @@
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use geared_servo::{Plant, PlantState, REFERENCE};
 
+/// A run from rest through `volts`, the state carried from step to step (the tachometer
+/// voltages summed, so that nothing is optimised away).
+fn run(plant: &Plant, volts: &[f32]) -> f32 {
+    let mut s = PlantState::REST;
+    let mut acc = 0.0f32;
+    for &v in volts {
+        acc += black_box(plant).step(&mut s, black_box(v)).tach_voltage_v;
+    }
+    acc
+}
+
 fn bench(c: &mut Criterion) {
     let plant = Plant::new(&REFERENCE.with_backlash_deg(0.08)).unwrap();
     let d = plant.half_gap_rad();
@@ -75,14 +86,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("run");
     g.throughput(Throughput::Elements(RUN as u64));
     g.bench_function("square_10V_25Hz_rattling_per_2000_steps", |b| {
-        b.iter(|| {
-            let mut s = PlantState::REST;
-            let mut acc = 0.0f32;
-            for &v in &volts {
-                acc += black_box(&plant).step(&mut s, black_box(v)).tach_voltage_v;
-            }
-            acc
-        })
+        b.iter(|| run(&plant, &volts))
     });
     g.finish();
 
@@ -106,14 +110,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("run");
     g.throughput(Throughput::Elements(steps as u64));
     g.bench_function("square_10V_1Hz_at_5.625ms_per_711_steps", |b| {
-        b.iter(|| {
-            let mut s = PlantState::REST;
-            let mut acc = 0.0f32;
-            for &v in &volts {
-                acc += black_box(&long).step(&mut s, black_box(v)).tach_voltage_v;
-            }
-            acc
-        })
+        b.iter(|| run(&long, &volts))
     });
     g.finish();
 }

@@ -55,32 +55,23 @@ pub(super) fn sub_step_plan(p: &ActuatorParams, n: f64, k: f64) -> SubStepPlan {
         MAX_SUB_STEPS
     };
     let always = periods > WHOLE_STEP_PERIOD_FRACTION;
-    if !always {
-        let block = if n_sub % 2 == 0 { n_sub / 2 } else { 0 };
-        return SubStepPlan {
-            n_sub,
-            always,
-            block,
-        };
-    }
-    // Sub-steps that fit in the whole-step check's span, then as many blocks as that needs,
-    // of equal length; the sub-steps are rounded up to fill them (shorter, never longer)
-    // when that stays within the cap, else the last block is shorter and sub-stepped.
+    // Sub-steps that fit in the whole-step check's span.
     let fit = libm::floor(WHOLE_STEP_PERIOD_FRACTION * n_sub as f64 / periods);
-    if fit.is_nan() || fit < 2.0 {
-        return SubStepPlan {
-            n_sub,
-            always,
-            block: 0,
-        };
-    }
-    let fit = (fit as usize).min(n_sub);
-    let blocks = n_sub.div_ceil(fit);
-    let block = n_sub.div_ceil(blocks);
-    let n_sub = if blocks * block <= MAX_SUB_STEPS {
-        blocks * block
+    let (n_sub, block) = if !always {
+        (n_sub, if n_sub % 2 == 0 { n_sub / 2 } else { 0 })
+    } else if fit.is_nan() || fit < 2.0 {
+        (n_sub, 0)
     } else {
-        n_sub
+        // As many blocks as the fit needs, of equal length; the sub-steps are rounded up to
+        // fill them (shorter, never longer) when that stays within the cap, else the last
+        // block is shorter and sub-stepped.
+        let blocks = n_sub.div_ceil((fit as usize).min(n_sub));
+        let block = n_sub.div_ceil(blocks);
+        if blocks * block <= MAX_SUB_STEPS {
+            (blocks * block, block)
+        } else {
+            (n_sub, block)
+        }
     };
     SubStepPlan {
         n_sub,
