@@ -410,8 +410,8 @@ pub(super) fn judge(
         j.delta_bic = ev.delta_bic;
         let statistical = if let Some(z) = at_floor(j.cur_c, j.floor_c, j.floor_sd, j.n_eff) {
             Err(format!(
-                "nothing to explain: the model without it follows the rows both keep to {:.3}× the noise floor, within the floor's own uncertainty ({z:.1} standard deviations; {FLOOR_Z} needed)",
-                (j.cur_c / j.floor_c).sqrt(),
+                "nothing to explain: {}",
+                at_floor_reason(j.cur_c, j.floor_c, z)
             ))
         } else if !ev.earns(opts.bic_threshold) {
             Err(format!(
@@ -792,25 +792,19 @@ pub(super) fn backward_step(
             continue;
         }
         let (without, own, common) = refit_replacing(cx, cur, wdata, st.effect, None);
-        let (ev, _, without_c) = evidence_on(cx, &cur.params, &without.params, &common);
+        let cmp = evidence_on(cx, &cur.params, &without.params, &common);
+        let ev = &cmp.ev;
         // The admission's first rule applied after the fact: the model without it follows
         // the rows both keep to within the floor's own uncertainty, so it has nothing left
         // to explain there (pair/2 of the foreign suite: a tachometer current pick-up of
         // −0.47 V/A taken first while a viscous friction and an input delay were missing;
         // with both added the model without it is at 0.97× the floor, −1.7 standard
         // deviations, though it still earned 31 units of BIC).
-        let floor_c = floor_cost(&common, &cx.sigma);
-        let at = at_floor(
-            without_c,
-            floor_c,
-            floor_cost_sd(&common, &cx.sigma),
-            effective_samples(&cur.params, &common),
-        );
-        if at.is_some() || !ev.earns(opts.bic_threshold) || ev.immaterial {
-            let why = if let Some(z) = at {
+        if cmp.at_floor.is_some() || !ev.earns(opts.bic_threshold) || ev.immaterial {
+            let why = if let Some(z) = cmp.at_floor {
                 format!(
-                    "removed once {added} was added: the model without it follows the rows both keep to {:.3}× the noise floor, within the floor's own uncertainty ({z:.1} standard deviations; {FLOOR_Z} needed)",
-                    (without_c / floor_c).sqrt()
+                    "removed once {added} was added: {}",
+                    at_floor_reason(cmp.without_c, cmp.floor_c, z)
                 )
             } else if ev.immaterial {
                 format!(
@@ -937,7 +931,12 @@ pub(super) fn swap_in_class(cx: &Ctx, cur: &Fit, wdata: &[Data], steps: &[Step])
                 continue;
             }
             let (fit, own, common) = refit_replacing(cx, cur, wdata, st.effect, Some((other, v)));
-            let (ev, with_c, without_c) = evidence_on(cx, &fit.params, &cur.params, &common);
+            let Compared {
+                ev,
+                with_c,
+                without_c,
+                ..
+            } = evidence_on(cx, &fit.params, &cur.params, &common);
             let own_c = calibrate::cost(&fit.params, &own);
             let plausible = implausibility(
                 other,
@@ -950,8 +949,12 @@ pub(super) fn swap_in_class(cx: &Ctx, cur: &Fit, wdata: &[Data], steps: &[Step])
                 // The member's own evidence, as its step reports it: against the model
                 // without it (nor the effect it replaces).
                 let (without, _, common_w) = refit_replacing(cx, &fit, &own, other, None);
-                let (ev_w, with_w, without_w) =
-                    evidence_on(cx, &fit.params, &without.params, &common_w);
+                let Compared {
+                    ev: ev_w,
+                    with_c: with_w,
+                    without_c: without_w,
+                    ..
+                } = evidence_on(cx, &fit.params, &without.params, &common_w);
                 let held_out = held_out(&without, &fit, &common_w);
                 return Some(Swap {
                     nrmse_before: rms_nrmse(without_w),
@@ -1011,20 +1014,49 @@ fn refit_replacing(
     (fit, own, common)
 }
 
+/// Two models compared on the same rows ([`evidence_on`]).
+struct Compared {
+    /// The evidence for the model with the effect.
+    ev: Evidence,
+    /// Its cost there.
+    with_c: f64,
+    /// The cost of the model without it there.
+    without_c: f64,
+    /// The floor's cost there.
+    floor_c: f64,
+    /// Where the model without it lies within the floor's uncertainty, how many standard
+    /// deviations ([`at_floor`]).
+    at_floor: Option<f64>,
+}
+
 /// The evidence for the model `with` over the model `without` on the rows `common` (the
-/// effective sample count of `with`'s residual), with the two costs there.
+/// effective sample count of `with`'s residual), with the costs there.
 fn evidence_on(
     cx: &Ctx,
     with: &ActuatorParams,
     without: &ActuatorParams,
     common: &[Data],
-) -> (Evidence, f64, f64) {
+) -> Compared {
     let with_c = calibrate::cost(with, common);
     let without_c = calibrate::cost(without, common);
     let floor_c = floor_cost(common, &cx.sigma);
     let n_eff = effective_samples(with, common);
-    let ev = Evidence::new(n_eff, with_c, without_c, floor_c, cx.opts.min_excess_share);
-    (ev, with_c, without_c)
+    Compared {
+        ev: Evidence::new(n_eff, with_c, without_c, floor_c, cx.opts.min_excess_share),
+        with_c,
+        without_c,
+        floor_c,
+        at_floor: at_floor(without_c, floor_c, floor_cost_sd(common, &cx.sigma), n_eff),
+    }
+}
+
+/// Why a model at cost `without_c` on rows whose floor costs `floor_c`, `z` standard
+/// deviations from it ([`at_floor`]), leaves nothing to explain.
+fn at_floor_reason(without_c: f64, floor_c: f64, z: f64) -> String {
+    format!(
+        "the model without it follows the rows both keep to {:.3}× the noise floor, within the floor's own uncertainty ({z:.1} standard deviations; {FLOOR_Z} needed)",
+        (without_c / floor_c).sqrt()
+    )
 }
 
 #[cfg(test)]
