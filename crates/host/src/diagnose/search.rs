@@ -94,6 +94,10 @@ pub(super) fn local_refits(
                 .collect();
             knobs.push(k.clone());
             let mut best: Option<Point> = None;
+            // Starts that differ only in the candidate's own value (the file's values with
+            // and without the background damping, for the mesh damping) make the same
+            // tries: the refit is run once for them.
+            let mut done: Vec<(Vec<ActuatorParams>, ActuatorParams)> = Vec::new();
             for start in starts {
                 let mut p = *start;
                 if v != 0.0 {
@@ -102,8 +106,12 @@ pub(super) fn local_refits(
                 // The start as it is competes only when the effect is on there.
                 let own = (calibrate::get(&p, k.param) != 0.0).then_some(p);
                 let grid = with_values(start, k, grid(start, effect, k, cx.max_v));
-                let p = cheapest(own.into_iter().chain(grid).collect(), rows.robust)
-                    .map_or(p, |(_, q)| q);
+                let tries: Vec<ActuatorParams> = own.into_iter().chain(grid).collect();
+                if done.iter().any(|(t, q)| *t == tries && *q == p) {
+                    continue;
+                }
+                done.push((tries.clone(), p));
+                let p = cheapest(tries, rows.robust).map_or(p, |(_, q)| q);
                 let (p1, _) = calibrate::coarse_search(&p, &knobs, rows.robust, 1);
                 let fit = polish_twice(&p1, &knobs, rows);
                 if best.as_ref().is_none_or(|b| fit.cost < b.cost) {
@@ -186,17 +194,26 @@ pub(super) fn structural_refits(
         .map(|(_, &i)| i)
         .collect();
     let mut alts: Vec<Vec<Point>> = vec![Vec::new(); local.len()];
-    let tasks: Vec<(usize, &ActuatorParams)> = structural
-        .iter()
-        .flat_map(|&i| from_file.iter().map(move |s| (i, s)))
-        .collect();
-    let globals: Vec<(usize, Point)> = tasks
-        .par_iter()
-        .filter_map(|&(i, start)| {
-            let r = local.get(i)?;
-            let k = r.knobs.last()?;
+    // Each candidate's starts: the file's values (each of `from_file`) with the candidate at
+    // its refitted value; starts that differ only in the candidate's own value (the mesh
+    // damping's, with and without the background) are one start.
+    let mut tasks: Vec<(usize, ActuatorParams)> = Vec::new();
+    for &i in &structural {
+        let Some((r, k)) = local.get(i).and_then(|r| Some((r, r.knobs.last()?))) else {
+            continue;
+        };
+        for start in from_file {
             let mut q = *start;
             calibrate::set(&mut q, k.param, calibrate::get(&r.fit.params, k.param));
+            if !tasks.contains(&(i, q)) {
+                tasks.push((i, q));
+            }
+        }
+    }
+    let globals: Vec<(usize, Point)> = tasks
+        .par_iter()
+        .filter_map(|&(i, q)| {
+            let r = local.get(i)?;
             Some((i, Point::from(&cx.settle(&q, &r.knobs, true).0)))
         })
         .collect();
