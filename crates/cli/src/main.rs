@@ -4,6 +4,11 @@ use clap::Parser;
 use geared_servo_cli::{run, Cli};
 
 fn main() {
+    // Traces for developers, off unless asked for: `RUST_LOG=geared_servo_host=debug`
+    // prints each phase of a diagnosis with the simulations run so far (docs/cost.md).
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("off"))
+        .format_timestamp_millis()
+        .init();
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

@@ -7,6 +7,7 @@ use crate::residual::weighted_norm;
 use crate::simulate::{column, Quantity, COLUMNS};
 use geared_servo::{ActuatorParams, Outputs, Plant, PlantState};
 use nalgebra::DVector;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// One record prepared for fitting.
 #[derive(Clone, Debug)]
@@ -372,6 +373,7 @@ fn run(
     let mut q = *p;
     q.sample_period_s = d.sample_period_s;
     let plant = Plant::new(&q).ok()?;
+    count_run(d.preroll + d.volts.len());
     let mut st = PlantState::REST;
     let v0 = d.volts.first().copied().unwrap_or(0.0) as f32;
     for _ in 0..d.preroll {
@@ -386,6 +388,24 @@ fn run(
         o = plant.step(&mut st, v as f32);
     }
     Some(())
+}
+
+/// Simulations of a record run so far in this process ([`runs`]), and the plant steps
+/// they took.
+static RUNS: AtomicU64 = AtomicU64::new(0);
+static ROWS: AtomicU64 = AtomicU64::new(0);
+
+/// Counts one simulation of `rows` plant steps ([`runs`]).
+fn count_run(rows: usize) {
+    RUNS.fetch_add(1, Ordering::Relaxed);
+    ROWS.fetch_add(rows as u64, Ordering::Relaxed);
+}
+
+/// Simulations of a record run so far in this process (every [`output`] and [`simulate`]),
+/// and the plant steps they took: for the traces of where a diagnosis spends its time
+/// (`RUST_LOG=geared_servo_host=debug`, docs/cost.md).
+pub fn runs() -> (u64, u64) {
+    (RUNS.load(Ordering::Relaxed), ROWS.load(Ordering::Relaxed))
 }
 
 /// NRMSE of `p` on `d` over its weighted rows (∞ if `p` is invalid).

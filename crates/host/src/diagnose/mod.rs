@@ -489,6 +489,12 @@ fn diagnose_records(
     finish: bool,
 ) -> Result<Outcome, HostError> {
     let cx = Ctx::new(file_params, data, validation, opts)?;
+    let pass = if resume.is_some() {
+        "second pass"
+    } else {
+        "pass"
+    };
+    trace(format_args!("{pass}: {} records weighed", data.len()));
     let (nominal, max_v) = (cx.nominal, cx.max_v);
     let first = data
         .first()
@@ -543,6 +549,10 @@ fn diagnose_records(
         }
     };
     base.cost_start = calibrate::cost(&nominal, &wdata);
+    trace(format_args!(
+        "{pass}: base settled, NRMSE {:.4}",
+        rms_nrmse(cur.cost)
+    ));
     let wfirst = wdata.first().unwrap_or(first);
     let (base_analysis, _) = analyse(&base.params, wfirst)?;
 
@@ -612,6 +622,9 @@ fn diagnose_records(
             if null.cost < cur.cost {
                 adopt(&mut cur, null);
             }
+            trace(format_args!(
+                "{pass}, round {rounds}: rows weighed, null refit"
+            ));
             // An effect the model does not have yet, or one it carries only as a bounded
             // background (the mesh damping): its whole range is the candidate.
             let background = |c: Effect| {
@@ -629,6 +642,10 @@ fn diagnose_records(
                 break;
             }
             let scores = search::score(&cur, &cands, &wdata, max_v);
+            trace(format_args!(
+                "{pass}, round {rounds}: {} candidates scored",
+                cands.len()
+            ));
             let score_list: Vec<(Effect, f64, f64)> = scores
                 .iter()
                 .map(|(e, _, c, v)| (*e, rms_nrmse(*c), *v))
@@ -657,9 +674,20 @@ fn diagnose_records(
                 vec![cur.params]
             };
             let mut local = search::local_refits(&cx, &cur, &refitted, &starts, &rows);
+            trace(format_args!(
+                "{pass}, round {rounds}: {} local refits from {} starts",
+                local.len(),
+                starts.len()
+            ));
             search::kin_starts(&cx, &cur, &mut local, &rows);
+            trace(format_args!("{pass}, round {rounds}: kin starts"));
             let alts = search::structural_refits(&cx, &local, cur_poor, &from_file);
+            trace(format_args!(
+                "{pass}, round {rounds}: {} global settles",
+                alts.iter().map(Vec::len).sum::<usize>()
+            ));
             let judged = judge::judge(&cx, &cur, &wdata, local, alts, &cur_bounds);
+            trace(format_args!("{pass}, round {rounds}: judged"));
             let class = judge::with_plausible_kin(&cx, &cur, &judged, judge::class(&judged, opts));
             let mut acc = judge::accept(&cx, &cur, &judged, &class, &mut rejected, true);
             if acc.is_none() {
@@ -710,6 +738,9 @@ fn diagnose_records(
                         &mut wdata,
                         &mut rejected,
                     );
+                    trace(format_args!(
+                        "{pass}, round {rounds}: nothing taken, resettled"
+                    ));
                     if moved {
                         continue;
                     }
@@ -760,6 +791,10 @@ fn diagnose_records(
                 told_apart: acc.told_apart.into_iter().map(|t| t.1).collect(),
             });
             cur = fit;
+            trace(format_args!(
+                "{pass}, round {rounds}: {} added and settled",
+                chosen.effect.name()
+            ));
             if let Some(r) = judge::backward_step(&cx, &cur, &wdata, &steps, chosen.effect) {
                 let st = steps.remove(r.step);
                 rejected.push(Rejection {
@@ -823,6 +858,16 @@ fn diagnose_records(
             rejected,
         },
     )
+}
+
+/// Traces a phase of a diagnosis at the debug level (`RUST_LOG=geared_servo_host=debug` in
+/// the command line): what was just done, and the simulations run so far in the process
+/// with the plant rows they stepped ([`calibrate::runs`]).
+fn trace(what: std::fmt::Arguments) {
+    if log::log_enabled!(log::Level::Debug) {
+        let (runs, rows) = calibrate::runs();
+        log::debug!("{what} ({runs} runs, {:.1} M rows)", rows as f64 * 1e-6);
+    }
 }
 
 /// Settle the current model `cur` (on its rows `wdata`) once more from where it is,
@@ -952,8 +997,9 @@ struct Found {
 /// when it is better on the rows both keep ([`better_on_common`]). Returns the better fit
 /// with its own rows, or `None` when the model stands.
 fn fine_search(cx: &Ctx, cur: &Fit, wdata: &[Data]) -> Option<(Fit, Vec<Data>)> {
-    let found = settle::fine_search(cur, wdata, cx.data, cx.opts.predictability)?;
-    let (fit, w, better) = better_on_common((cur.clone(), wdata.to_vec()), found, cx.data);
+    let found = settle::fine_search(cur, wdata, cx.data, cx.opts.predictability);
+    trace(format_args!("fine search"));
+    let (fit, w, better) = better_on_common((cur.clone(), wdata.to_vec()), found?, cx.data);
     better.then_some((fit, w))
 }
 
