@@ -494,7 +494,10 @@ fn diagnose_records(
     } else {
         "pass"
     };
-    trace(format_args!("{pass}: {} records weighed", data.len()));
+    trace(format_args!(
+        "{pass}: {} records, their noise levels estimated",
+        data.len()
+    ));
     let (nominal, max_v) = (cx.nominal, cx.max_v);
     let first = data
         .first()
