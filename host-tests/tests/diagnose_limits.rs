@@ -4,15 +4,48 @@
 use clap::Parser;
 use geared_servo::REFERENCE;
 use geared_servo_cli::{run, Cli};
-use geared_servo_host::diagnose::{diagnose, Options};
+use geared_servo_host::diagnose::{diagnose, diagnose_with, Options};
 use geared_servo_host::synth;
-use geared_servo_host::ErrorKind;
+use geared_servo_host::{ErrorKind, Progress};
 use geared_servo_host_tests::scenario::{data, perturbed, record, spec, NOISE_V};
+use std::sync::Mutex;
 
+/// A progress sink that keeps the stages reported to it.
+#[derive(Default)]
+struct Stages(Mutex<Vec<String>>);
+
+impl Progress for Stages {
+    fn stage(&self, name: &str) {
+        if let Ok(mut v) = self.0.lock() {
+            v.push(name.to_string());
+        }
+    }
+}
+
+/// Also: `diagnose_with` reports its phases as they end, from the noise levels to the fine
+/// search that finishes a diagnosis without a validation record.
 #[test]
 fn clean_data_adds_no_effect_and_reaches_the_noise_floor() {
     let (d, floor) = record(&perturbed(), false);
-    let out = diagnose(&REFERENCE, &[d], None, &Options::default()).unwrap();
+    let stages = Stages::default();
+    let out = diagnose_with(&REFERENCE, &[d], None, &Options::default(), &stages).unwrap();
+    let stages = stages.0.into_inner().unwrap();
+    assert_eq!(
+        stages.first().map(String::as_str),
+        Some("pass: 1 record, their noise levels estimated"),
+        "{stages:?}"
+    );
+    assert!(
+        stages
+            .get(1)
+            .is_some_and(|s| s.starts_with("pass: base settled, NRMSE 0.")),
+        "{stages:?}"
+    );
+    assert_eq!(
+        stages.last().map(String::as_str),
+        Some("fine search"),
+        "{stages:?}"
+    );
     assert!(
         out.steps.is_empty(),
         "added {:?}",

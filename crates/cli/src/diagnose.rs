@@ -2,9 +2,10 @@
 
 use crate::args::{Cli, DiagnoseArgs};
 use crate::common::{load_params, read_record, Report};
+use crate::progress::spinner;
 use geared_servo::Effect;
 use geared_servo_host::calibrate::Data;
-use geared_servo_host::diagnose::{diagnose, fittable, Options};
+use geared_servo_host::diagnose::{diagnose_with, fittable, Options};
 use geared_servo_host::diagnose_report::insert;
 use geared_servo_host::HostError;
 use serde_json::json;
@@ -41,7 +42,11 @@ pub fn run(cli: &Cli, a: &DiagnoseArgs) -> Result<Report, HostError> {
         fittable(&p, f).map_err(|e| HostError::input(format!("--fit: {}", e.message)))?;
         opts.fit = Some(f.clone());
     }
-    let out = diagnose(&p, &data, val.as_ref(), &opts)?;
+    // Minutes on long records: the phase it is in, on a terminal.
+    let bar = spinner("diagnose");
+    let out = diagnose_with(&p, &data, val.as_ref(), &opts, &bar);
+    bar.finish();
+    let out = out?;
     let first = data.first().ok_or_else(|| HostError::input("no record"))?;
     let mut json = out.to_json(first);
     insert(&mut json, "params", json!(name));

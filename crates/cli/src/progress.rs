@@ -35,3 +35,22 @@ pub fn progress(len: u64, what: &str) -> Bar {
     pb.set_message(what.to_string());
     Bar(pb)
 }
+
+/// A spinner on stderr for a computation of unknown length, showing the elapsed time and the
+/// last stage it reported: hidden when stderr is not a terminal, and while the host's debug
+/// trace is on (its lines go to stderr too, and a redrawn spinner would tear them).
+pub fn spinner(what: &str) -> Bar {
+    let pb = if log::log_enabled!(target: "geared_servo_host", log::Level::Debug) {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::stderr())
+    };
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{spinner} {elapsed:>4} {prefix}, done so far: {msg}",
+    ) {
+        pb.set_style(style);
+    }
+    pb.set_prefix(what.to_string());
+    pb.enable_steady_tick(std::time::Duration::from_millis(200));
+    Bar(pb)
+}

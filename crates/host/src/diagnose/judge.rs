@@ -1116,6 +1116,7 @@ mod tests {
             val_sigma: None,
             max_v: 5.0,
             opts: &opts,
+            progress: &(),
         };
         let md = Param::Effect(Effect::MeshDamping);
         let bg = calibrate::background_damping_knob(&file, 5.0);

@@ -50,6 +50,7 @@ pub use kin::{kin, separating_measurement, KIN};
 use crate::calibrate::{self, Data, Fit, Knob, Param, Robust};
 use crate::error::HostError;
 use crate::noise;
+use crate::progress::Progress;
 use crate::residual::{self, Analysis};
 use geared_servo::{ActuatorParams, Effect};
 use settle::{
@@ -294,11 +295,25 @@ pub fn diagnose(
     validation: Option<&Data>,
     opts: &Options,
 ) -> Result<Outcome, HostError> {
+    diagnose_with(file_params, data, validation, opts, &())
+}
+
+/// [`diagnose`] reporting each phase it completes to `progress` ([`Progress::stage`], the
+/// same lines as the debug trace, without its counts): a diagnosis takes minutes on long
+/// records, and a command line or a notebook can show where it is.
+pub fn diagnose_with(
+    file_params: &ActuatorParams,
+    data: &[Data],
+    validation: Option<&Data>,
+    opts: &Options,
+    progress: &dyn Progress,
+) -> Result<Outcome, HostError> {
     let out = diagnose_records(
         file_params,
         data,
         validation,
         opts,
+        progress,
         None,
         validation.is_none(),
     )?;
@@ -308,11 +323,11 @@ pub fn diagnose(
         return Ok(out);
     };
     if after <= opts.material_ratio * v_floor {
-        return finished(file_params, data, validation, opts, out);
+        return finished(file_params, data, validation, opts, progress, out);
     }
     let mut all = data.to_vec();
     all.push(v.clone());
-    let mut both = diagnose_records(file_params, &all, None, opts, Some(&out), true)?;
+    let mut both = diagnose_records(file_params, &all, None, opts, progress, Some(&out), true)?;
     let vn = weigh_one(&both.nominal, v, opts.predictability);
     let vc = weigh_one(&both.final_fit.params, v, opts.predictability);
     both.validation = Some((
@@ -339,6 +354,8 @@ struct Ctx<'a> {
     /// Largest |voltage| of the records, V.
     max_v: f64,
     opts: &'a Options,
+    /// Where each completed phase is reported ([`Ctx::trace`]).
+    progress: &'a dyn Progress,
 }
 
 impl<'a> Ctx<'a> {
@@ -349,6 +366,7 @@ impl<'a> Ctx<'a> {
         data: &'a [Data],
         validation: Option<&'a Data>,
         opts: &'a Options,
+        progress: &'a dyn Progress,
     ) -> Result<Ctx<'a>, HostError> {
         let first = data
             .first()
@@ -363,7 +381,19 @@ impl<'a> Ctx<'a> {
             val_sigma: validation.map(|v| noise::sigma(&v.y)),
             max_v: data.iter().map(Data::max_abs_v).fold(0.0, f64::max),
             opts,
+            progress,
         })
+    }
+
+    /// Reports a completed phase: to the progress sink, and with the simulations run so
+    /// far to the debug log (`RUST_LOG=geared_servo_host=debug`, docs/cost.md).
+    fn trace(&self, what: std::fmt::Arguments) {
+        let line = what.to_string();
+        if log::log_enabled!(log::Level::Debug) {
+            let (runs, rows) = calibrate::runs();
+            log::debug!("{line} ({runs} runs, {:.1} M rows)", rows as f64 * 1e-6);
+        }
+        self.progress.stage(&line);
     }
 
     /// The records weighted by their predictability under `p`.
@@ -485,18 +515,20 @@ fn diagnose_records(
     data: &[Data],
     validation: Option<&Data>,
     opts: &Options,
+    progress: &dyn Progress,
     resume: Option<&Outcome>,
     finish: bool,
 ) -> Result<Outcome, HostError> {
-    let cx = Ctx::new(file_params, data, validation, opts)?;
+    let cx = Ctx::new(file_params, data, validation, opts, progress)?;
     let pass = if resume.is_some() {
         "second pass"
     } else {
         "pass"
     };
-    trace(format_args!(
-        "{pass}: {} records, their noise levels estimated",
-        data.len()
+    cx.trace(format_args!(
+        "{pass}: {} record{}, their noise levels estimated",
+        data.len(),
+        if data.len() == 1 { "" } else { "s" }
     ));
     let (nominal, max_v) = (cx.nominal, cx.max_v);
     let first = data
@@ -552,7 +584,7 @@ fn diagnose_records(
         }
     };
     base.cost_start = calibrate::cost(&nominal, &wdata);
-    trace(format_args!(
+    cx.trace(format_args!(
         "{pass}: base settled, NRMSE {:.4}",
         rms_nrmse(cur.cost)
     ));
@@ -625,7 +657,7 @@ fn diagnose_records(
             if null.cost < cur.cost {
                 adopt(&mut cur, null);
             }
-            trace(format_args!(
+            cx.trace(format_args!(
                 "{pass}, round {rounds}: rows weighed, null refit"
             ));
             // An effect the model does not have yet, or one it carries only as a bounded
@@ -645,7 +677,7 @@ fn diagnose_records(
                 break;
             }
             let scores = search::score(&cur, &cands, &wdata, max_v);
-            trace(format_args!(
+            cx.trace(format_args!(
                 "{pass}, round {rounds}: {} candidates scored",
                 cands.len()
             ));
@@ -677,20 +709,20 @@ fn diagnose_records(
                 vec![cur.params]
             };
             let mut local = search::local_refits(&cx, &cur, &refitted, &starts, &rows);
-            trace(format_args!(
+            cx.trace(format_args!(
                 "{pass}, round {rounds}: {} local refits from {} starts",
                 local.len(),
                 starts.len()
             ));
             search::kin_starts(&cx, &cur, &mut local, &rows);
-            trace(format_args!("{pass}, round {rounds}: kin starts"));
+            cx.trace(format_args!("{pass}, round {rounds}: kin starts"));
             let alts = search::structural_refits(&cx, &local, cur_poor, &from_file);
-            trace(format_args!(
+            cx.trace(format_args!(
                 "{pass}, round {rounds}: {} global settles",
                 alts.iter().map(Vec::len).sum::<usize>()
             ));
             let judged = judge::judge(&cx, &cur, &wdata, local, alts, &cur_bounds);
-            trace(format_args!("{pass}, round {rounds}: judged"));
+            cx.trace(format_args!("{pass}, round {rounds}: judged"));
             let class = judge::with_plausible_kin(&cx, &cur, &judged, judge::class(&judged, opts));
             let mut acc = judge::accept(&cx, &cur, &judged, &class, &mut rejected, true);
             if acc.is_none() {
@@ -741,7 +773,7 @@ fn diagnose_records(
                         &mut wdata,
                         &mut rejected,
                     );
-                    trace(format_args!(
+                    cx.trace(format_args!(
                         "{pass}, round {rounds}: nothing taken, resettled"
                     ));
                     if moved {
@@ -794,7 +826,7 @@ fn diagnose_records(
                 told_apart: acc.told_apart.into_iter().map(|t| t.1).collect(),
             });
             cur = fit;
-            trace(format_args!(
+            cx.trace(format_args!(
                 "{pass}, round {rounds}: {} added and settled",
                 chosen.effect.name()
             ));
@@ -861,16 +893,6 @@ fn diagnose_records(
             rejected,
         },
     )
-}
-
-/// Traces a phase of a diagnosis at the debug level (`RUST_LOG=geared_servo_host=debug` in
-/// the command line): what was just done, and the simulations run so far in the process
-/// with the plant rows they stepped ([`calibrate::runs`]).
-fn trace(what: std::fmt::Arguments) {
-    if log::log_enabled!(log::Level::Debug) {
-        let (runs, rows) = calibrate::runs();
-        log::debug!("{what} ({runs} runs, {:.1} M rows)", rows as f64 * 1e-6);
-    }
 }
 
 /// Settle the current model `cur` (on its rows `wdata`) once more from where it is,
@@ -1001,7 +1023,7 @@ struct Found {
 /// with its own rows, or `None` when the model stands.
 fn fine_search(cx: &Ctx, cur: &Fit, wdata: &[Data]) -> Option<(Fit, Vec<Data>)> {
     let found = settle::fine_search(cur, wdata, cx.data, cx.opts.predictability);
-    trace(format_args!("fine search"));
+    cx.trace(format_args!("fine search"));
     let (fit, w, better) = better_on_common((cur.clone(), wdata.to_vec()), found?, cx.data);
     better.then_some((fit, w))
 }
@@ -1013,9 +1035,10 @@ fn finished(
     data: &[Data],
     validation: Option<&Data>,
     opts: &Options,
+    progress: &dyn Progress,
     out: Outcome,
 ) -> Result<Outcome, HostError> {
-    let cx = Ctx::new(file_params, data, validation, opts)?;
+    let cx = Ctx::new(file_params, data, validation, opts, progress)?;
     let wdata: Vec<Data> = data
         .iter()
         .zip(&out.weights)
@@ -1249,6 +1272,7 @@ mod tests {
                 val_sigma: None,
                 max_v: 7.0,
                 opts: &opts,
+                progress: &(),
             };
             let c = calibrate::cost(&p, data);
             let robust = cx.robust_ratio(&p, data);
@@ -1332,7 +1356,7 @@ mod tests {
                 .collect();
             let data = std::slice::from_ref(&d);
             let opts = Options::default();
-            let cx = Ctx::new(&file, data, None, &opts).unwrap();
+            let cx = Ctx::new(&file, data, None, &opts, &()).unwrap();
             // The model with the spring the first records suggested, polished here.
             let mut q = cx.nominal;
             q.effects.set(Effect::HingeStiffness, g);
