@@ -12,6 +12,18 @@ pub trait Progress: Sync {
     fn stage(&self, name: &str) {
         let _ = name;
     }
+    /// The caller asks the computation to stop (an interrupt in a notebook). Checked after
+    /// each reported stage by the computations that say so (`diagnose_with`), which then
+    /// return an error ([`cancelled`]); false by default.
+    fn cancelled(&self) -> bool {
+        false
+    }
+}
+
+/// The error of a computation stopped because its progress sink asked it to
+/// ([`Progress::cancelled`]), after the stage `stage`.
+pub fn cancelled(stage: &str) -> crate::HostError {
+    crate::HostError::other(format!("cancelled by the caller after: {stage}"))
 }
 
 /// The silent sink.

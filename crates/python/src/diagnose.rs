@@ -7,13 +7,14 @@ use crate::record::record_of;
 use crate::{detached, py_err, py_json, InputError};
 use geared_servo::Effect;
 use geared_servo_host::calibrate::{self, Data};
-use geared_servo_host::diagnose::{diagnose as run, fittable, Options};
+use geared_servo_host::diagnose::{diagnose_with as run, fittable, Options};
 use geared_servo_host::diagnose_report::insert;
-use geared_servo_host::{params_file, HostError};
+use geared_servo_host::{params_file, HostError, Progress};
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyTuple};
 use serde_json::json;
+use std::sync::Mutex;
 
 /// The result of `diagnose`.
 #[pyclass(module = "geared_servo", name = "Diagnosis", frozen)]
@@ -63,14 +64,48 @@ impl Diagnosis {
     }
 }
 
+/// The progress of a diagnosis seen from Python: each phase done goes to the callback,
+/// when there is one; an exception it raises, or an interrupt (Ctrl-C, a notebook's stop
+/// button, seen between phases), stops the diagnosis and is raised by `diagnose`.
+struct Stages {
+    callback: Option<Py<PyAny>>,
+    /// The first exception raised, which stops the diagnosis.
+    error: Mutex<Option<PyErr>>,
+}
+
+impl Progress for Stages {
+    fn stage(&self, name: &str) {
+        Python::attach(|py| {
+            let called = match &self.callback {
+                Some(cb) => cb.call1(py, (name,)).map(|_| ()),
+                None => Ok(()),
+            };
+            if let Err(e) = called.and_then(|()| py.check_signals()) {
+                if let Ok(mut first) = self.error.lock() {
+                    first.get_or_insert(e);
+                }
+            }
+        });
+    }
+
+    fn cancelled(&self) -> bool {
+        self.error.lock().map(|e| e.is_some()).unwrap_or(false)
+    }
+}
+
 /// Calibrates `params` against `record` (a CSV path, a DataFrame or a dict of arrays with
 /// `time_s`, `motor_voltage_v` and an output; or a list of them, fitted together), analyses
 /// the residual and adds the effects that explain it, as `geared-servo diagnose`.
 /// `validate` is a record that is not fitted (`--validate`), `candidates` the effect names
 /// to try (`--candidates`, default all), `max_steps` the most effects added, `fit` the key
-/// paths to calibrate instead of the default set (`--fit`).
+/// paths to calibrate instead of the default set (`--fit`). `progress`, a callable, receives
+/// each phase as it ends (a diagnosis of a long record takes minutes; `progress=print`
+/// shows where it is). Between phases an interrupt stops the diagnosis (KeyboardInterrupt),
+/// as does an exception of `progress` (raised again here).
+// One Rust argument per keyword argument of the Python function.
+#[allow(clippy::too_many_arguments)]
 #[pyfunction]
-#[pyo3(signature = (params, record, validate = None, candidates = None, max_steps = 3, fit = None))]
+#[pyo3(signature = (params, record, validate = None, candidates = None, max_steps = 3, fit = None, progress = None))]
 pub fn diagnose<'py>(
     py: Python<'py>,
     params: PyRef<'py, Params>,
@@ -79,6 +114,7 @@ pub fn diagnose<'py>(
     candidates: Option<Vec<String>>,
     max_steps: usize,
     fit: Option<Vec<String>>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Diagnosis> {
     let (p, name) = (params.p, params.name.clone());
     let records: Vec<Bound<'py, PyAny>> =
@@ -122,8 +158,12 @@ pub fn diagnose<'py>(
         .first()
         .cloned()
         .ok_or_else(|| InputError::new_err("no record"))?;
-    let (out, json, before, after) = detached(py, || {
-        let out = run(&p, &data, val.as_ref(), &opts)?;
+    let stages = Stages {
+        callback: progress,
+        error: Mutex::new(None),
+    };
+    let done = detached(py, || {
+        let out = run(&p, &data, val.as_ref(), &opts, &stages)?;
         let mut json = out.to_json(&first);
         insert(&mut json, "params", json!(name));
         let sim = |q| {
@@ -133,7 +173,12 @@ pub fn diagnose<'py>(
         };
         let (before, after) = (sim(&out.nominal)?, sim(&out.final_fit.params)?);
         Ok((out, json, before, after))
-    })?;
+    });
+    // An exception of the callback or an interrupt stopped it: that is what the caller sees.
+    if let Some(e) = stages.error.into_inner().ok().flatten() {
+        return Err(e);
+    }
+    let (out, json, before, after) = done?;
     let calibrated = out.calibrated(&p);
     let toml =
         params_file::to_toml(&calibrated, &out.calibrated_header(&name, &names)).map_err(py_err)?;

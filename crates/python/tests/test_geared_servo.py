@@ -1,6 +1,8 @@
 """The geared_servo package against the parameter file and the `geared-servo` command line."""
 
 import json
+import os
+import signal
 import tomllib
 import warnings
 
@@ -237,3 +239,31 @@ def test_a_dataframe_or_a_dict_is_the_same_record_as_its_csv(measured):
     assert from_frame.report == from_dict.report == from_csv.report == from_structured.report
     with pytest.raises(gs.InputError, match=r"^a record is a CSV path, a pandas DataFrame"):
         gs.diagnose(p, 42)
+
+
+def test_diagnose_reports_each_phase_and_stops_when_asked(measured):
+    path, _ = measured
+    p = gs.Params.reference()
+    seen = []
+    watched = gs.diagnose(p, str(path), max_steps=0, progress=seen.append)
+    assert watched.report == gs.diagnose(p, str(path), max_steps=0).report
+    assert seen[0] == "pass: 1 record, their noise levels estimated", seen
+    assert seen[1].startswith("pass: base settled, NRMSE "), seen
+    assert seen[-1] == "fine search", seen
+
+    class Stop(Exception):
+        pass
+
+    calls = []
+
+    def stop(stage):
+        calls.append(stage)
+        raise Stop(stage)
+
+    # An exception of the callback stops the diagnosis at once and is raised again.
+    with pytest.raises(Stop, match="noise levels estimated"):
+        gs.diagnose(p, str(path), max_steps=0, progress=stop)
+    assert calls == ["pass: 1 record, their noise levels estimated"]
+    # So does an interrupt (Ctrl-C), seen between phases.
+    with pytest.raises(KeyboardInterrupt):
+        gs.diagnose(p, str(path), max_steps=0, progress=lambda stage: os.kill(os.getpid(), signal.SIGINT))

@@ -300,7 +300,9 @@ pub fn diagnose(
 
 /// [`diagnose`] reporting each phase it completes to `progress` ([`Progress::stage`], the
 /// same lines as the debug trace, without its counts): a diagnosis takes minutes on long
-/// records, and a command line or a notebook can show where it is.
+/// records, and a command line or a notebook can show where it is. After each phase it
+/// stops with an error ([`crate::progress::cancelled`]) when the sink asks
+/// ([`Progress::cancelled`]).
 pub fn diagnose_with(
     file_params: &ActuatorParams,
     data: &[Data],
@@ -386,14 +388,19 @@ impl<'a> Ctx<'a> {
     }
 
     /// Reports a completed phase: to the progress sink, and with the simulations run so
-    /// far to the debug log (`RUST_LOG=geared_servo_host=debug`, docs/cost.md).
-    fn trace(&self, what: std::fmt::Arguments) {
+    /// far to the debug log (`RUST_LOG=geared_servo_host=debug`, docs/cost.md). An error
+    /// when the sink asks the diagnosis to stop ([`Progress::cancelled`]).
+    fn trace(&self, what: std::fmt::Arguments) -> Result<(), HostError> {
         let line = what.to_string();
         if log::log_enabled!(log::Level::Debug) {
             let (runs, rows) = calibrate::runs();
             log::debug!("{line} ({runs} runs, {:.1} M rows)", rows as f64 * 1e-6);
         }
         self.progress.stage(&line);
+        if self.progress.cancelled() {
+            return Err(crate::progress::cancelled(&line));
+        }
+        Ok(())
     }
 
     /// The records weighted by their predictability under `p`.
@@ -529,7 +536,7 @@ fn diagnose_records(
         "{pass}: {} record{}, their noise levels estimated",
         data.len(),
         if data.len() == 1 { "" } else { "s" }
-    ));
+    ))?;
     let (nominal, max_v) = (cx.nominal, cx.max_v);
     let first = data
         .first()
@@ -587,7 +594,7 @@ fn diagnose_records(
     cx.trace(format_args!(
         "{pass}: base settled, NRMSE {:.4}",
         rms_nrmse(cur.cost)
-    ));
+    ))?;
     let wfirst = wdata.first().unwrap_or(first);
     let (base_analysis, _) = analyse(&base.params, wfirst)?;
 
@@ -659,7 +666,7 @@ fn diagnose_records(
             }
             cx.trace(format_args!(
                 "{pass}, round {rounds}: rows weighed, null refit"
-            ));
+            ))?;
             // An effect the model does not have yet, or one it carries only as a bounded
             // background (the mesh damping): its whole range is the candidate.
             let background = |c: Effect| {
@@ -680,7 +687,7 @@ fn diagnose_records(
             cx.trace(format_args!(
                 "{pass}, round {rounds}: {} candidates scored",
                 cands.len()
-            ));
+            ))?;
             let score_list: Vec<(Effect, f64, f64)> = scores
                 .iter()
                 .map(|(e, _, c, v)| (*e, rms_nrmse(*c), *v))
@@ -713,16 +720,16 @@ fn diagnose_records(
                 "{pass}, round {rounds}: {} local refits from {} starts",
                 local.len(),
                 starts.len()
-            ));
+            ))?;
             search::kin_starts(&cx, &cur, &mut local, &rows);
-            cx.trace(format_args!("{pass}, round {rounds}: kin starts"));
+            cx.trace(format_args!("{pass}, round {rounds}: kin starts"))?;
             let alts = search::structural_refits(&cx, &local, cur_poor, &from_file);
             cx.trace(format_args!(
                 "{pass}, round {rounds}: {} global settles",
                 alts.iter().map(Vec::len).sum::<usize>()
-            ));
+            ))?;
             let judged = judge::judge(&cx, &cur, &wdata, local, alts, &cur_bounds);
-            cx.trace(format_args!("{pass}, round {rounds}: judged"));
+            cx.trace(format_args!("{pass}, round {rounds}: judged"))?;
             let class = judge::with_plausible_kin(&cx, &cur, &judged, judge::class(&judged, opts));
             let mut acc = judge::accept(&cx, &cur, &judged, &class, &mut rejected, true);
             if acc.is_none() {
@@ -775,7 +782,7 @@ fn diagnose_records(
                     );
                     cx.trace(format_args!(
                         "{pass}, round {rounds}: nothing taken, resettled"
-                    ));
+                    ))?;
                     if moved {
                         continue;
                     }
@@ -829,7 +836,7 @@ fn diagnose_records(
             cx.trace(format_args!(
                 "{pass}, round {rounds}: {} added and settled",
                 chosen.effect.name()
-            ));
+            ))?;
             if let Some(r) = judge::backward_step(&cx, &cur, &wdata, &steps, chosen.effect) {
                 let st = steps.remove(r.step);
                 rejected.push(Rejection {
@@ -875,7 +882,7 @@ fn diagnose_records(
         rejected.insert(0, t);
     }
     if finish {
-        if let Some((fit, w)) = fine_search(&cx, &cur, &wdata) {
+        if let Some((fit, w)) = fine_search(&cx, &cur, &wdata)? {
             adopt(&mut cur, fit);
             wdata = w;
         }
@@ -1021,11 +1028,14 @@ struct Found {
 /// the rows the model is polished, judged and reported on ([`settle::fine_search`]), kept
 /// when it is better on the rows both keep ([`better_on_common`]). Returns the better fit
 /// with its own rows, or `None` when the model stands.
-fn fine_search(cx: &Ctx, cur: &Fit, wdata: &[Data]) -> Option<(Fit, Vec<Data>)> {
+fn fine_search(cx: &Ctx, cur: &Fit, wdata: &[Data]) -> Result<Option<(Fit, Vec<Data>)>, HostError> {
     let found = settle::fine_search(cur, wdata, cx.data, cx.opts.predictability);
-    cx.trace(format_args!("fine search"));
-    let (fit, w, better) = better_on_common((cur.clone(), wdata.to_vec()), found?, cx.data);
-    better.then_some((fit, w))
+    cx.trace(format_args!("fine search"))?;
+    let Some(found) = found else {
+        return Ok(None);
+    };
+    let (fit, w, better) = better_on_common((cur.clone(), wdata.to_vec()), found, cx.data);
+    Ok(better.then_some((fit, w)))
 }
 
 /// [`diagnose`]'s outcome when the validation record leaves no material residual (no second
@@ -1044,7 +1054,7 @@ fn finished(
         .zip(&out.weights)
         .map(|(d, w)| d.with_weights(w))
         .collect();
-    let Some((fit, w)) = fine_search(&cx, &out.final_fit, &wdata) else {
+    let Some((fit, w)) = fine_search(&cx, &out.final_fit, &wdata)? else {
         return Ok(out);
     };
     let mut cur = out.final_fit;

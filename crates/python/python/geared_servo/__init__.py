@@ -12,7 +12,8 @@ are exceptions with its one-line messages: ``InputError`` (a ``ValueError``) for
     p.backlash.total_deg = 0.08               # validated at once
     out = gs.simulate(p, volts, dt=0.0005)    # dict of numpy arrays
     gs.resonances(p, vpk=10.0)["f_ar_hz"]
-    d = gs.diagnose(p, "meas.csv")            # or a DataFrame, or a dict of arrays
+    d = gs.diagnose(p, "meas.csv")            # or a DataFrame, or a dict of arrays;
+                                              # progress=print shows each phase as it ends
     d.report["final"]["fit_percent"], d.params.to_toml()
 """
 
