@@ -264,6 +264,12 @@ def test_diagnose_reports_each_phase_and_stops_when_asked(measured):
     with pytest.raises(Stop, match="noise levels estimated"):
         gs.diagnose(p, str(path), max_steps=0, progress=stop)
     assert calls == ["pass: 1 record, their noise levels estimated"]
-    # So does an interrupt (Ctrl-C), seen between phases.
-    with pytest.raises(KeyboardInterrupt):
-        gs.diagnose(p, str(path), max_steps=0, progress=lambda stage: os.kill(os.getpid(), signal.SIGINT))
+    # So does an interrupt (Ctrl-C), seen between phases. Python's own handler, which turns
+    # SIGINT into KeyboardInterrupt, is installed here: a test run in the background (as CI's
+    # can be) inherits SIGINT ignored, and Python then keeps it ignored.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            gs.diagnose(p, str(path), max_steps=0, progress=lambda stage: os.kill(os.getpid(), signal.SIGINT))
+    finally:
+        signal.signal(signal.SIGINT, previous)
