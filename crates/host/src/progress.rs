@@ -1,5 +1,6 @@
-//! Progress of long computations (sweeps, the paper's figures), reported to whatever the
-//! caller supplies: a progress bar in the command line, a callback in a notebook, nothing.
+//! Progress of long computations (sweeps, the paper's figures, a diagnosis), reported to
+//! whatever the caller supplies: a progress bar in the command line, a callback in a
+//! notebook, nothing; a sink may also ask a diagnosis to stop.
 
 /// A sink for progress reports. Both methods do nothing by default, so `&()` is a silent
 /// sink. Reports may arrive from several threads at once.
