@@ -277,7 +277,15 @@ impl Outcome {
                 let alts: Vec<String> = st
                     .indistinguishable_from
                     .iter()
-                    .map(|(e, x)| format!("{e} = {x:.4e} {}", e.unit()))
+                    .map(|(e, x)| {
+                        let (lo, hi) = e.plausible_range();
+                        let outside = if (lo..=hi).contains(x) {
+                            String::new()
+                        } else {
+                            format!(" (outside its plausible range, {lo:e} to {hi:e})")
+                        };
+                        format!("{e} = {x:.4e} {}{outside}", e.unit())
+                    })
                     .collect();
                 let _ = writeln!(
                     s,

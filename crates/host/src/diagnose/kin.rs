@@ -1,6 +1,7 @@
 //! Effects that records of one output often cannot tell apart, and what would separate them.
 
-use geared_servo::Effect;
+use crate::calibrate::{self, Param};
+use geared_servo::{ActuatorParams, Effect};
 
 /// Pairs of effects that records of one output at one amplitude often cannot tell apart,
 /// with what would separate them: the one list the search and the report use. When one of
@@ -86,5 +87,230 @@ pub fn separating_measurement(a: Effect, b: Effect, output: &str) -> String {
             .replace("log the armature current (viscous friction draws current, a sensor error does not), or ", ""),
         Some(m) => m,
         None => "records at two amplitudes and of other outputs (current, load angle)".to_string(),
+    }
+}
+
+/// The back-EMF damping of `p`'s motor, `b_e = k_t k_b / R`, N·m·s/rad: the viscous
+/// torque per motor speed that a voltage source driving the winding adds.
+fn back_emf_damping(p: &ActuatorParams) -> f64 {
+    p.motor.torque_constant_nm_per_a * p.motor.back_emf_v_s_per_rad / p.motor.resistance_ohm
+}
+
+/// The model `p` with its motor speed scale changed by `c`: every internal speed and angle
+/// divided by `c` and the tachometer gain multiplied by it, so that the tachometer reads
+/// what it read. Inertias, the stiffness, the mesh damping, the load's viscous friction and
+/// the hinge spring are multiplied by `c` (the torques stay the same at the scaled speeds
+/// and angles), the backlash is divided by it, the friction torques stay, and the motor's
+/// viscous friction takes up the change of the back-EMF damping `b_e` ([`back_emf_damping`])
+/// that the scaled speed brings: `b_e + b_m' = c (b_e + b_m)`. Exact for a record of the
+/// tachometer when the armature's inductance is negligible (its time constant L/R against
+/// the record's periods), with no gravity torque (a sine of the angle) and no current
+/// pick-up; the armature current and the angles change. `None` when the motor's viscous
+/// friction would have to be negative, or the result is not a valid parameter set.
+pub fn speed_rescaled(p: &ActuatorParams, c: f64) -> Option<ActuatorParams> {
+    let b_e = back_emf_damping(p);
+    let b_m = c * (b_e + p.effects.get(Effect::MotorViscous)) - b_e;
+    // A friction that should come out 0, up to rounding.
+    let b_m = if b_m < 0.0 && b_m > -1e-9 * b_e {
+        0.0
+    } else {
+        b_m
+    };
+    if !(c.is_finite() && c > 0.0 && b_m >= 0.0) {
+        return None;
+    }
+    let mut q = *p;
+    q.motor.inertia_kg_m2 *= c;
+    q.load.inertia_kg_m2 *= c;
+    calibrate::set(
+        &mut q,
+        Param::StiffnessKeq,
+        c * calibrate::get(p, Param::StiffnessKeq),
+    );
+    q.backlash_deg /= c;
+    for e in [
+        Effect::MeshDamping,
+        Effect::LoadViscous,
+        Effect::HingeStiffness,
+    ] {
+        q.effects.set(e, c * p.effects.get(e));
+    }
+    q.effects.set(Effect::MotorViscous, b_m);
+    let g = c * (1.0 + p.effects.get(Effect::TachGain)) - 1.0;
+    q.effects.set(Effect::TachGain, g);
+    q.derived().ok()?;
+    Some(q)
+}
+
+/// The model that explains a tachometer record as `p` does, with the effect `from` set back
+/// to `from_value` (the current model's) and `to` in its place, for the pairs of [`KIN`]
+/// whose exchange needs every mechanical quantity rescaled ([`speed_rescaled`]): a
+/// tachometer gain error against the motor's or the load's viscous friction. A tachometer
+/// that reads low and a viscous friction both lower the steady reading at a voltage, and on
+/// a record's fast parts the gain looks like an inertia. The load's viscous friction is
+/// taken as the motor's through the gear ratio (`b_m = b_L / N²`, exact where the gears are
+/// in contact). A local search cannot walk from one to the other (every calibrated quantity
+/// moves by the gain), so a kin's refit starts here ([`super::search::kin_starts`]). `None`
+/// for other pairs, or where the other explanation would need a negative friction (a
+/// tachometer that reads high is no friction).
+pub fn mirror(
+    p: &ActuatorParams,
+    from: Effect,
+    from_value: f64,
+    to: Effect,
+) -> Option<ActuatorParams> {
+    let n2 = p.derived().ok()?.n_total.powi(2);
+    let b_e = back_emf_damping(p);
+    let b_m = p.effects.get(Effect::MotorViscous);
+    let mut q = *p;
+    match (from, to) {
+        (Effect::MotorViscous | Effect::LoadViscous, Effect::TachGain) => {
+            // The friction to be taken out, as the motor's; the motor keeps `keep`.
+            let (extra, keep) = if from == Effect::MotorViscous {
+                (b_m - from_value, from_value)
+            } else {
+                let extra = (p.effects.get(Effect::LoadViscous) - from_value) / n2;
+                q.effects.set(Effect::LoadViscous, from_value);
+                q.effects.set(Effect::MotorViscous, b_m + extra);
+                (extra, b_m)
+            };
+            let mut r = speed_rescaled(&q, (b_e + keep) / (b_e + keep + extra))?;
+            r.effects.set(from, from_value);
+            r.effects.set(Effect::MotorViscous, keep);
+            Some(r)
+        }
+        (Effect::TachGain, Effect::MotorViscous | Effect::LoadViscous) => {
+            let g = p.effects.get(Effect::TachGain);
+            let mut r = speed_rescaled(&q, (1.0 + from_value) / (1.0 + g))?;
+            r.effects.set(Effect::TachGain, from_value);
+            if to == Effect::LoadViscous {
+                let extra = r.effects.get(Effect::MotorViscous) - b_m;
+                r.effects.set(Effect::MotorViscous, b_m);
+                r.effects.set(
+                    Effect::LoadViscous,
+                    r.effects.get(Effect::LoadViscous) + n2 * extra,
+                );
+            }
+            r.derived().ok()?;
+            Some(r)
+        }
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibrate::tests::data_of;
+    use crate::calibrate::{nrmse, Data};
+    use geared_servo::REFERENCE;
+
+    const H: f64 = 5e-4;
+
+    /// The reference actuator with a mesh damping that keeps its gears from rattling (with
+    /// rattle no two models follow each other sample by sample: MODEL.md) and `effect` at
+    /// `value`, stiffness in measured form, at 2 kHz.
+    fn unit(effect: Effect, value: f64) -> ActuatorParams {
+        let mut p = calibrate::with_measured_stiffness(&REFERENCE.with_backlash_deg(0.05)).unwrap();
+        p.sample_period_s = H;
+        p.effects.set(Effect::MeshDamping, 0.1);
+        p.effects.set(effect, value);
+        p
+    }
+
+    /// 2 s of a ±9 V square wave at 2 Hz with a 2 V multisine (7–230 Hz) on it, as the
+    /// tachometer record of `p`.
+    fn record(p: &ActuatorParams) -> Data {
+        let volts = (0..4000)
+            .map(|k| {
+                let t = k as f64 * H;
+                let sq = if (k / 500) % 2 == 0 { 9.0 } else { -9.0 };
+                let ms: f64 = [7.0, 31.0, 83.0, 230.0]
+                    .iter()
+                    .enumerate()
+                    .map(|(i, f)| 0.5 * (std::f64::consts::TAU * f * t + i as f64).sin())
+                    .sum();
+                sq + ms
+            })
+            .collect();
+        let mut d = data_of(volts, H, Some(p));
+        d.output = "tach_voltage_v".into();
+        d
+    }
+
+    /// Relative difference of two parameter sets' entries that the mirror maps.
+    fn farthest(a: &ActuatorParams, b: &ActuatorParams) -> f64 {
+        let rel = |x: f64, y: f64| {
+            if x == y {
+                0.0
+            } else {
+                (x - y).abs() / x.abs().max(y.abs())
+            }
+        };
+        let mut worst = [
+            rel(a.motor.inertia_kg_m2, b.motor.inertia_kg_m2),
+            rel(a.load.inertia_kg_m2, b.load.inertia_kg_m2),
+            rel(a.backlash_deg, b.backlash_deg),
+            rel(
+                calibrate::get(a, Param::StiffnessKeq),
+                calibrate::get(b, Param::StiffnessKeq),
+            ),
+        ]
+        .into_iter()
+        .fold(0.0, f64::max);
+        for e in Effect::ALL {
+            worst = worst.max(rel(a.effects.get(e), b.effects.get(e)));
+        }
+        worst
+    }
+
+    #[test]
+    fn a_viscous_friction_and_a_slow_tachometer_read_alike_through_the_mirror() {
+        // A motor friction of a tenth of the back-EMF damping: the tachometer gain that
+        // stands in for it is −b/(b_e + b), every mechanical quantity 1/(1 + g) smaller.
+        let b_e = back_emf_damping(&unit(Effect::MotorViscous, 0.0));
+        for (from, value) in [
+            (Effect::MotorViscous, 0.1 * b_e),
+            (Effect::LoadViscous, 0.02),
+        ] {
+            let p = unit(from, value);
+            let d = record(&p);
+            let m = mirror(&p, from, 0.0, Effect::TachGain).unwrap();
+            assert_eq!(m.effects.get(from), 0.0);
+            let g = m.effects.get(Effect::TachGain);
+            if from == Effect::MotorViscous {
+                assert!((g + 0.1 / 1.1).abs() < 1e-12, "{g}");
+                assert!((m.motor.inertia_kg_m2 / p.motor.inertia_kg_m2 - (1.0 + g)).abs() < 1e-12);
+            }
+            // The same tachometer record, to a small part of a 2 % noise (measured: 2.8e-5
+            // for the motor's friction, the winding's L/R; 1.2e-2 for the load's, the
+            // twist and the gap of the gears that the reflection through the gear ratio
+            // ignores: a start for a polish, not an identity).
+            let e = nrmse(&m, &d);
+            let bound = if from == Effect::MotorViscous {
+                1e-3
+            } else {
+                2e-2
+            };
+            assert!(e < bound, "{from}: the mirror's NRMSE {e}");
+            // Not a trivial property of the record: without the rescaling, the tachometer
+            // gain alone reads far off (4.7e-2 and 0.21).
+            let mut plain = p;
+            plain.effects.set(from, 0.0);
+            plain.effects.set(Effect::TachGain, g);
+            assert!(nrmse(&plain, &d) > 10.0 * e, "{from}");
+            // And back.
+            let back = mirror(&m, Effect::TachGain, 0.0, from).unwrap();
+            assert!(farthest(&back, &p) < 1e-9, "{from}: {back:?} against {p:?}");
+        }
+    }
+
+    #[test]
+    fn a_tachometer_that_reads_high_is_no_friction() {
+        let p = unit(Effect::TachGain, 0.05);
+        assert!(mirror(&p, Effect::TachGain, 0.0, Effect::MotorViscous).is_none());
+        assert!(mirror(&p, Effect::TachGain, 0.0, Effect::LoadViscous).is_none());
+        // Pairs without a rescaling have no mirror.
+        assert!(mirror(&p, Effect::InputDelay, 0.0, Effect::TachLag).is_none());
     }
 }

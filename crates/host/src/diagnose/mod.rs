@@ -722,12 +722,17 @@ fn diagnose_records(
                 starts.len()
             ))?;
             search::kin_starts(&cx, &cur, &mut local, &rows);
+            let mirrors = search::mirror_points(&cur, &local, &rows);
             cx.trace(format_args!("{pass}, round {rounds}: kin starts"))?;
-            let alts = search::structural_refits(&cx, &local, cur_poor, &from_file);
+            let mut alts = search::structural_refits(&cx, &local, cur_poor, &from_file);
             cx.trace(format_args!(
                 "{pass}, round {rounds}: {} global settles",
                 alts.iter().map(Vec::len).sum::<usize>()
             ))?;
+            // A kin's mirror is judged as one more refit of the candidate.
+            for (a, m) in alts.iter_mut().zip(mirrors) {
+                a.extend(m);
+            }
             let judged = judge::judge(&cx, &cur, &wdata, local, alts, &cur_bounds);
             cx.trace(format_args!("{pass}, round {rounds}: judged"))?;
             let class = judge::with_plausible_kin(&cx, &cur, &judged, judge::class(&judged, opts));
