@@ -150,9 +150,10 @@ pub fn speed_rescaled(p: &ActuatorParams, c: f64) -> Option<ActuatorParams> {
 /// a record's fast parts the gain looks like an inertia. The load's viscous friction is
 /// taken as the motor's through the gear ratio (`b_m = b_L / N²`, exact where the gears are
 /// in contact). A local search cannot walk from one to the other (every calibrated quantity
-/// moves by the gain), so a kin's refit starts here ([`super::search::kin_starts`]). `None`
-/// for other pairs, or where the other explanation would need a negative friction (a
-/// tachometer that reads high is no friction).
+/// moves by the gain), so the search judges this point as one more refit of `to`
+/// ([`super::search::mirror_points`]). `None` for other pairs, or where the other
+/// explanation would need a negative friction (a tachometer that reads high is no
+/// friction).
 pub fn mirror(
     p: &ActuatorParams,
     from: Effect,
