@@ -263,9 +263,9 @@ struct Row {
 // there the same day when fresh, two bars missed; 46 of 48 and every bar met on 2026-11-28
 // after three judge changes made on them, so they are no longer held out; draws 12–14,
 // 15–17, 18–20 and 21–23 have since been run too (README.md's table, docs/diagnose.md);
-// draws 24–26 since (47 of 48), 27–29 (40 of 48) and 30–32 (44 of 48); 33–35 are held out. Those figures counted a pair
-// right with a third, spurious step; since 2026-11-29 `verdict_right` does not: draws
-// 21–23, 47 → 45 of 48).
+// draws 24–26 since (47 of 48), 27–29 (40 of 48) and 30–32 (44 of 48); 33–35 are held
+// out. Those figures counted a pair right with a third, spurious step; since 2026-11-29
+// `verdict_right` does not: draws 21–23, 47 → 45 of 48).
 #[test]
 #[ignore = "issue 12 acceptance suite (draws 0-2, 48 cases, about an hour on 2 cores): beyond CI's budget; scores in README.md and docs/diagnose.md; run with --ignored"]
 fn diagnose_names_effects_in_records_of_the_independent_reference() {
@@ -765,8 +765,7 @@ fn a_slow_tachometer_and_a_motor_friction_are_reported_together() {
     let (_, v) = c.expected[0];
     let want = c.expected_fitted(Effect::TachGain, v);
     assert!((g / want - 1.0).abs() <= VALUE_TOL, "gain {g} for {want}");
-    let m = &c.file.motor;
-    let b_e = m.torque_constant_nm_per_a * m.back_emf_v_s_per_rad / m.resistance_ohm;
+    let b_e = c.file.effect_scales(0.0).back_emf_damping;
     let b_want = -b_e * want / (1.0 + want);
     assert!(
         (b / b_want - 1.0).abs() <= VALUE_TOL,

@@ -91,9 +91,10 @@ pub fn separating_measurement(a: Effect, b: Effect, output: &str) -> String {
 }
 
 /// The back-EMF damping of `p`'s motor, `b_e = k_t k_b / R`, N·m·s/rad: the viscous
-/// torque per motor speed that a voltage source driving the winding adds.
+/// torque per motor speed that a voltage source driving the winding adds (the scale of the
+/// motor's viscous friction, [`ActuatorParams::effect_scales`]).
 fn back_emf_damping(p: &ActuatorParams) -> f64 {
-    p.motor.torque_constant_nm_per_a * p.motor.back_emf_v_s_per_rad / p.motor.resistance_ohm
+    p.effect_scales(0.0).back_emf_damping
 }
 
 /// The model `p` with its motor speed scale changed by `c`: every internal speed and angle
