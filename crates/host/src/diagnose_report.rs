@@ -3,6 +3,7 @@
 
 use crate::calibrate::{self, Data, Fit, Knob};
 use crate::diagnose::{Outcome, ResidualKind};
+use crate::predictability;
 use crate::residual;
 use geared_servo::ActuatorParams;
 use serde_json::{json, Map, Value};
@@ -148,6 +149,20 @@ impl Outcome {
                 json!({"measured": a, "model": b}),
             );
         }
+        insert(
+            &mut v,
+            "unpredictable_spans",
+            json!(self
+                .unpredictable_spans
+                .iter()
+                .map(|l| json!({
+                    "start_s": l.seconds.0,
+                    "end_s": l.seconds.1,
+                    "rms_measured": l.measured_rms,
+                    "rms_model": l.model_rms,
+                }))
+                .collect::<Vec<_>>()),
+        );
         if let Some(f) = v.get_mut("final") {
             insert(f, "nrmse_all_rows", json!(self.final_nrmse_all_rows));
         }
@@ -188,6 +203,28 @@ impl Outcome {
         v
     }
 
+    /// The summary's line on the unpredictable span whose level the final model misses most
+    /// (modelled over measured RMS furthest from 1, [`predictability::SpanLevel::ratio`]),
+    /// or `None` when no span was long enough to compare.
+    fn worst_span_line(&self) -> Option<String> {
+        let sigma = self.noise_sigma.first().copied().unwrap_or(0.0);
+        let off = |l: &predictability::SpanLevel| l.ratio(sigma).ln().abs();
+        let worst = self
+            .unpredictable_spans
+            .iter()
+            .max_by(|a, b| off(a).total_cmp(&off(b)))?;
+        Some(format!(
+            "  span by span ({} of at least {} s): the furthest, {:.3}-{:.3} s, RMS {:.4} measured (noise taken out), {:.4} modelled (x{:.2})",
+            self.unpredictable_spans.len(),
+            predictability::SPAN_MIN_S,
+            worst.seconds.0,
+            worst.seconds.1,
+            worst.measured_rms,
+            worst.model_rms,
+            worst.ratio(sigma)
+        ))
+    }
+
     /// Human summary.
     pub fn summary(&self) -> String {
         use std::fmt::Write;
@@ -219,6 +256,9 @@ impl Outcome {
                 s,
                 "  over those rows the RMS is {a:.4} measured, {m:.4} modelled (compared by statistics, not sample by sample)"
             );
+        }
+        if let Some(line) = self.worst_span_line() {
+            let _ = writeln!(s, "{line}");
         }
         let b = &self.base_analysis;
         let _ = writeln!(

@@ -516,6 +516,81 @@ pub fn weigh(p: &ActuatorParams, d: &Data) -> (Data, Predictability) {
     (d.with_weights(&pr.weight), pr)
 }
 
+/// Shortest unpredictable span whose level [`span_levels`] compares, in seconds: a few cycles
+/// of the slowest burst of a stepped sine (10 Hz), so that its RMS is a statistic of the
+/// motion and not of where in a cycle the span happens to end.
+pub const SPAN_MIN_S: f64 = 0.05;
+
+/// One unpredictable span compared by statistics: the measured and the modelled output's
+/// RMS over its rows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpanLevel {
+    /// The span's rows: (first row, one past the last row).
+    pub rows: (usize, usize),
+    /// The same span in seconds from the record's first row: (start, end).
+    pub seconds: (f64, f64),
+    /// RMS of the measured output over the span with the noise taken out
+    /// (√(mean y² − σ²), 0 when the noise explains it all), in the output's unit.
+    pub measured_rms: f64,
+    /// RMS of the modelled output over the span, in the output's unit.
+    pub model_rms: f64,
+}
+
+impl SpanLevel {
+    /// Modelled over measured RMS, the measured level floored at the noise level `sigma` (a
+    /// span quieter than the noise reads as the noise).
+    pub fn ratio(&self, sigma: f64) -> f64 {
+        self.model_rms / self.measured_rms.max(sigma).max(f64::MIN_POSITIVE)
+    }
+}
+
+/// The level of every unpredictable span of at least [`SPAN_MIN_S`] (maximal runs of rows
+/// whose `weight` is below ½), measured against modelled: where no model can be followed
+/// sample by sample its level still can (two faithful models of a rattling gear train agree
+/// in RMS to a few per cent over such a span, while a model that jumped to another of two
+/// coexisting responses does not). `sigma` is the measurement noise (standard deviation, the
+/// output's unit), `period_s` the sample period.
+pub fn span_levels(
+    measured: &[f64],
+    model: &[f64],
+    weight: &[f64],
+    sigma: f64,
+    period_s: f64,
+) -> Vec<SpanLevel> {
+    let n = measured.len().min(model.len()).min(weight.len());
+    let min_rows = if period_s > 0.0 {
+        ((SPAN_MIN_S / period_s).ceil() as usize).max(1)
+    } else {
+        usize::MAX
+    };
+    let mut out = Vec::new();
+    let mut start = None;
+    for k in 0..=n {
+        let out_of_span = weight.get(k).is_none_or(|w| *w >= 0.5) || k == n;
+        match (start, out_of_span) {
+            (None, false) => start = Some(k),
+            (Some(a), true) => {
+                start = None;
+                if k - a < min_rows {
+                    continue;
+                }
+                let ms = |x: &[f64]| {
+                    let c = x.get(a..k).unwrap_or(&[]);
+                    c.iter().map(|v| v * v).sum::<f64>() / c.len().max(1) as f64
+                };
+                out.push(SpanLevel {
+                    rows: (a, k),
+                    seconds: (a as f64 * period_s, k as f64 * period_s),
+                    measured_rms: (ms(measured) - sigma * sigma).max(0.0).sqrt(),
+                    model_rms: ms(model).sqrt(),
+                });
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -589,5 +664,43 @@ mod tests {
         assert_eq!(d.restarts().len(), 2);
         let w = assess_restarts(&p, &d);
         assert!(w.iter().all(|x| *x == 1.0));
+    }
+
+    #[test]
+    fn span_levels_compare_each_long_enough_unpredictable_span_with_the_noise_taken_out() {
+        // 1 s at H: rows 200..400 (0.1 s) and 600..620 (10 ms, too short) unpredictable.
+        let n = rows(1.0);
+        let mut weight = vec![1.0; n];
+        for k in (200..400).chain(600..620) {
+            weight[k] = 0.0;
+        }
+        // Measured: a constant level whose square is 0.3² plus the noise's 0.1²; the model 0.6.
+        let sigma = 0.1;
+        let measured = vec![(0.3f64 * 0.3 + sigma * sigma).sqrt(); n];
+        let model = vec![0.6; n];
+        let levels = span_levels(&measured, &model, &weight, sigma, H);
+        assert_eq!(levels.len(), 1, "{levels:?}");
+        let l = levels[0];
+        assert_eq!(l.rows, (200, 400));
+        assert!((l.measured_rms - 0.3).abs() < 1e-12, "{l:?}");
+        assert!((l.model_rms - 0.6).abs() < 1e-12, "{l:?}");
+        assert!((l.ratio(sigma) - 2.0).abs() < 1e-12);
+        // A span quieter than the noise reads as the noise; a span at the record's end counts.
+        let mut w = vec![1.0; n];
+        for x in &mut w[n - 200..] {
+            *x = 0.0;
+        }
+        let quiet = span_levels(&vec![0.05; n], &vec![0.2; n], &w, sigma, H);
+        assert_eq!(quiet.len(), 1);
+        assert_eq!(quiet[0].rows, (n - 200, n));
+        assert_eq!(quiet[0].measured_rms, 0.0);
+        assert!((quiet[0].ratio(sigma) - 2.0).abs() < 1e-12);
+        // No span, a broken time base, mismatched lengths: nothing compared, nothing panics.
+        assert!(span_levels(&measured, &model, &vec![1.0; n], sigma, H).is_empty());
+        assert!(span_levels(&measured, &model, &weight, sigma, 0.0).is_empty());
+        assert_eq!(
+            span_levels(&measured[..300], &model, &weight, sigma, H).len(),
+            1
+        );
     }
 }

@@ -50,6 +50,7 @@ pub use kin::{kin, separating_measurement, KIN};
 use crate::calibrate::{self, Data, Fit, Knob, Param, Robust};
 use crate::error::HostError;
 use crate::noise;
+use crate::predictability;
 use crate::progress::Progress;
 use crate::residual::{self, Analysis};
 use geared_servo::{ActuatorParams, Effect};
@@ -238,6 +239,11 @@ pub struct Outcome {
     /// RMS of the measured and of the modelled output over the unpredictable rows of the
     /// first record (compared by statistics instead of sample by sample), when there are any.
     pub unpredictable_rms: Option<(f64, f64)>,
+    /// The first record's unpredictable spans of at least
+    /// [`predictability::SPAN_MIN_S`], each compared by its level, measured against the
+    /// final model ([`predictability::span_levels`]): a span where the model's level is far
+    /// from the record's is one it has not explained, only excused.
+    pub unpredictable_spans: Vec<predictability::SpanLevel>,
 }
 
 fn rms_nrmse(cost: f64) -> f64 {
@@ -1130,6 +1136,13 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
         let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt();
         (!a.is_empty()).then(|| (rms(&a), rms(&b)))
     };
+    let unpredictable_spans = predictability::span_levels(
+        &wfirst.y,
+        &final_trace.y,
+        &wfirst.weight,
+        cx.sigma.first().copied().unwrap_or(0.0),
+        wfirst.sample_period_s,
+    );
     Ok(Outcome {
         nominal,
         nominal_analysis,
@@ -1147,6 +1160,7 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
         weights: wdata.iter().map(|d| d.weight.clone()).collect(),
         noise_sigma: cx.sigma.clone(),
         unpredictable_rms,
+        unpredictable_spans,
         final_fit: cur,
         validation,
         validation_floor,
