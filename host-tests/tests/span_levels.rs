@@ -36,8 +36,6 @@ fn the_truth_and_its_unit_agree_in_level_over_every_unpredictable_span() {
         Kind::Single(Effect::HingeStiffness),
         Kind::Pair,
     ];
-    let mut compared = 0;
-    let mut worst = 1.0f64;
     let mut factors = Vec::new();
     for kind in kinds {
         for draw in 0..3 {
@@ -68,13 +66,13 @@ fn the_truth_and_its_unit_agree_in_level_over_every_unpredictable_span() {
                             l.model_rms
                         );
                     }
-                    worst = worst.max(f);
                     factors.push(f);
                 }
-                compared += levels.len();
             }
         }
     }
+    let compared = factors.len();
+    let worst = factors.iter().copied().fold(1.0f64, f64::max);
     eprintln!("{compared} spans compared, the furthest x{worst:.3}");
     assert!(compared >= 100, "too few spans to say anything: {compared}");
     let within = factors.iter().filter(|f| **f <= LEVEL_FACTOR).count() as f64 / compared as f64;
@@ -85,5 +83,4 @@ fn the_truth_and_its_unit_agree_in_level_over_every_unpredictable_span() {
         100.0 * within
     );
     assert!(worst <= ANY_FACTOR, "a span off by x{worst:.3}");
-    assert!(compared >= 30, "too few spans to say anything: {compared}");
 }
