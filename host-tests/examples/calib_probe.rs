@@ -106,6 +106,10 @@ fn main() {
             kept_bursts(&c);
             continue;
         }
+        if std::env::var("SPANS").is_ok() {
+            spans(&c);
+            continue;
+        }
         if std::env::var("ENSEMBLES").is_ok() {
             ensembles(&c);
             continue;
@@ -1213,4 +1217,181 @@ pub fn cover(c: &foreign::ForeignCase, out: &geared_servo_host::diagnose::Outcom
             sp.effects.stiction_ratio, te.effects.stiction_ratio
         );
     }
+}
+
+/// Each unpredictable span's level, measured against the model's and against the range of
+/// perturbed copies' levels (the ensembles of `predictability::assess`), at the truth and
+/// at the final model.
+fn spans(c: &foreign::ForeignCase) {
+    let d = &c.estimation;
+    let sigma = noise::sigma(&d.y);
+    let te = eq_truth(&c);
+    let out = c.diagnose(&Options::default()).unwrap();
+    let moves: [(Param, bool, [f64; 4]); 6] = [
+        (Param::MotorInertia, true, [1.0, -1.0, 1.0, -1.0]),
+        (Param::LoadInertia, true, [1.0, 1.0, -1.0, -1.0]),
+        (Param::StiffnessKeq, true, [1.0, -1.0, -1.0, 1.0]),
+        (Param::MotorFriction, false, [-1.0, 1.0, 1.0, -1.0]),
+        (Param::LoadFriction, false, [1.0, 1.0, -1.0, -1.0]),
+        (Param::Backlash, false, [-1.0, 1.0, -1.0, 1.0]),
+    ];
+    let scale: f64 = std::env::var("SPANS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1.0);
+    {
+        let w0 = &out.weights[0];
+        let m0 = calibrate::output(&out.final_fit.params, d).unwrap();
+        let kept = w0.iter().filter(|x| **x >= 0.5).count();
+        println!(
+            "NLL {} final(diagnose's weights, {kept} rows) est: {}",
+            c.label(),
+            nll(&d.y, &m0, w0, sigma)
+        );
+        let wd = d.weight.iter().filter(|x| **x >= 0.5).count();
+        println!("  record's own weights keep {wd} of {}", d.weight.len());
+    }
+    if let Ok(e) = std::env::var("SPANS_ADD") {
+        let effect = geared_servo::Effect::ALL
+            .iter()
+            .copied()
+            .find(|x| x.name() == e)
+            .unwrap();
+        let mv = d.max_abs_v();
+        let data = [d.clone(), c.validation.clone()];
+        for start in [0.3, 1.0, 3.0] {
+            let mut q = out.final_fit.params;
+            let k = calibrate::knob(&q, Param::Effect(effect), mv);
+            let v0 = if k.log {
+                (k.lo * k.hi).sqrt() * start
+            } else {
+                k.lo + (k.hi - k.lo) * start / 6.0
+            };
+            calibrate::set(&mut q, Param::Effect(effect), v0);
+            let mut knobs = out.final_fit.knobs.clone();
+            knobs.push(k);
+            let mut p = q;
+            for round in 0..3 {
+                let w: Vec<_> = data
+                    .iter()
+                    .map(|x| predictability::weigh(&p, x).0)
+                    .collect();
+                p = if round == 0 {
+                    calibrate::calibrate(&p, &knobs, &w).params
+                } else {
+                    calibrate::polish(&p, &knobs, &w, 20).params
+                };
+            }
+            let mut tot = 0.0;
+            for (rn, rd) in [("est", &data[0]), ("val", &data[1])] {
+                let rw = predictability::assess(&p, rd).weight;
+                let rm = calibrate::output(&p, rd).unwrap();
+                let r = nll(&rd.y, &rm, &rw, noise::sigma(&rd.y));
+                tot += r.split_whitespace().nth(1).unwrap().parse::<f64>().unwrap();
+                println!(
+                    "NLL {} +{e} from {v0:.3e} -> {:.3e} {rn}: {r}",
+                    c.label(),
+                    p.effects.get(effect)
+                );
+            }
+            println!("NLL {} +{e} from {v0:.3e}: both {tot:.0}", c.label());
+        }
+    }
+    for (name, p) in [("truth", te), ("final", out.final_fit.params)] {
+        let w = predictability::assess(&p, d).weight;
+        let model = calibrate::output(&p, d).unwrap();
+        let mut members = Vec::new();
+        for (ip, fp) in [(1e-3, 5e-3), (1e-2, 5e-2)] {
+            for m in 0..4 {
+                let mut q = p;
+                for (param, inertial, signs) in moves {
+                    let share = scale * if inertial { ip } else { fp };
+                    let v = calibrate::get(&p, param);
+                    if v > 0.0 {
+                        calibrate::set(&mut q, param, v * (1.0 + signs[m] * share));
+                    }
+                }
+                members.push(calibrate::output(&q, d).unwrap());
+            }
+        }
+        let levels = predictability::span_levels(&d.y, &model, &w, sigma, d.sample_period_s);
+        for (rn, rd) in [("est", d.clone()), ("val", c.validation.clone())] {
+            let rw = predictability::assess(&p, &rd).weight;
+            let rm = calibrate::output(&p, &rd).unwrap();
+            let rs = noise::sigma(&rd.y);
+            println!(
+                "NLL {} {name} {rn}: {}",
+                c.label(),
+                nll(&rd.y, &rm, &rw, rs)
+            );
+        }
+        let kept = w.iter().filter(|x| **x >= 0.5).count() as f64 / w.len() as f64;
+        println!(
+            "SPANS {} {name}: kept {:.1}%, {} spans",
+            c.label(),
+            100.0 * kept,
+            levels.len()
+        );
+        for l in &levels {
+            let (a, b) = l.rows;
+            let rms =
+                |x: &[f64]| (x[a..b].iter().map(|v| v * v).sum::<f64>() / (b - a) as f64).sqrt();
+            let mr: Vec<f64> = members.iter().map(|y| rms(y)).collect();
+            let lo = mr
+                .iter()
+                .cloned()
+                .fold(f64::INFINITY, f64::min)
+                .min(l.model_rms);
+            let hi = mr.iter().cloned().fold(0.0, f64::max).max(l.model_rms);
+            let meas = l.measured_rms.max(sigma);
+            let out_by = if meas < lo {
+                lo / meas
+            } else if meas > hi {
+                meas / hi
+            } else {
+                1.0
+            };
+            println!(
+                "  {:.3}-{:.3} s: measured {:.4} model {:.4} (x{:.2}) members {:.4}..{:.4} outside x{:.2}",
+                l.seconds.0, l.seconds.1, l.measured_rms, l.model_rms, l.ratio(sigma), lo, hi, out_by
+            );
+        }
+    }
+}
+
+/// Negative log-likelihood (nats, constant dropped) of `y` under the model: N(m, σ²) on the
+/// predictable rows; on each unpredictable run of rows N(m, σ² + 2 L²), L the model's RMS
+/// over the run (two independent signals of level L differ by √2 L in RMS). Returns the
+/// total and its parts.
+fn nll(y: &[f64], m: &[f64], w: &[f64], sigma: f64) -> String {
+    let s2 = sigma * sigma;
+    let n = y.len();
+    let (mut pred, mut unpred, mut logv, mut np) = (0.0, 0.0, 0.0, 0usize);
+    let mut k = 0;
+    while k < n {
+        if w[k] >= 0.5 {
+            pred += (y[k] - m[k]).powi(2) / (2.0 * s2);
+            np += 1;
+            k += 1;
+            continue;
+        }
+        let a = k;
+        while k < n && w[k] < 0.5 {
+            k += 1;
+        }
+        let l2 = m[a..k].iter().map(|v| v * v).sum::<f64>() / (k - a) as f64;
+        let v = s2 + 2.0 * l2;
+        for j in a..k {
+            unpred += (y[j] - m[j]).powi(2) / (2.0 * v);
+        }
+        logv += 0.5 * (k - a) as f64 * (v / s2).ln();
+    }
+    format!(
+        "total {:.0} = pred {:.0} ({} rows) + unpred {:.0} + logvar {:.0}",
+        pred + unpred + logv,
+        pred,
+        np,
+        unpred,
+        logv
+    )
 }
