@@ -1248,6 +1248,28 @@ fn spans(c: &foreign::ForeignCase) {
             c.label(),
             nll(&d.y, &m0, w0, sigma)
         );
+        let wf = predictability::assess(&out.final_fit.params, d).weight;
+        let differ = w0
+            .iter()
+            .zip(&wf)
+            .filter(|(a, b)| (**a >= 0.5) != (**b >= 0.5))
+            .count();
+        let mut runs = Vec::new();
+        for k in 0..wf.len() {
+            if (w0[k] >= 0.5) != (wf[k] >= 0.5)
+                && (k == 0 || (w0[k - 1] >= 0.5) == (wf[k - 1] >= 0.5))
+            {
+                runs.push(format!(
+                    "{:.3}s {}",
+                    k as f64 * d.sample_period_s,
+                    if wf[k] >= 0.5 { "now kept" } else { "now out" }
+                ));
+            }
+        }
+        println!(
+            "  the final's own assessment differs on {differ} rows: {}",
+            runs.join(", ")
+        );
         let wd = d.weight.iter().filter(|x| **x >= 0.5).count();
         println!("  record's own weights keep {wd} of {}", d.weight.len());
     }
