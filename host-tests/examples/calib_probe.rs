@@ -1225,7 +1225,7 @@ pub fn cover(c: &foreign::ForeignCase, out: &geared_servo_host::diagnose::Outcom
 fn spans(c: &foreign::ForeignCase) {
     let d = &c.estimation;
     let sigma = noise::sigma(&d.y);
-    let te = eq_truth(&c);
+    let te = eq_truth(c);
     let out = c.diagnose(&Options::default()).unwrap();
     let moves: [(Param, bool, [f64; 4]); 6] = [
         (Param::MotorInertia, true, [1.0, -1.0, 1.0, -1.0]),
