@@ -1227,18 +1227,20 @@ fn spans(c: &foreign::ForeignCase) {
     let sigma = noise::sigma(&d.y);
     let te = eq_truth(c);
     let out = c.diagnose(&Options::default()).unwrap();
-    let moves: [(Param, bool, [f64; 4]); 6] = [
-        (Param::MotorInertia, true, [1.0, -1.0, 1.0, -1.0]),
-        (Param::LoadInertia, true, [1.0, 1.0, -1.0, -1.0]),
-        (Param::StiffnessKeq, true, [1.0, -1.0, -1.0, 1.0]),
-        (Param::MotorFriction, false, [-1.0, 1.0, 1.0, -1.0]),
-        (Param::LoadFriction, false, [1.0, 1.0, -1.0, -1.0]),
-        (Param::Backlash, false, [-1.0, 1.0, -1.0, 1.0]),
-    ];
+    // `SPANS=x` scales the copies' perturbations by x (1 when not a number).
     let scale: f64 = std::env::var("SPANS")
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(1.0);
+    let scaled = |s: predictability::Settings| predictability::Settings {
+        inertia_perturbation: scale * s.inertia_perturbation,
+        friction_perturbation: scale * s.friction_perturbation,
+        ..s
+    };
+    let ensembles = [
+        scaled(predictability::Settings::default()),
+        scaled(predictability::WIDE),
+    ];
     {
         let w0 = &out.weights[0];
         let m0 = calibrate::output(&out.final_fit.params, d).unwrap();
@@ -1246,7 +1248,7 @@ fn spans(c: &foreign::ForeignCase) {
         println!(
             "NLL {} final(diagnose's weights, {kept} rows) est: {}",
             c.label(),
-            nll(&d.y, &m0, w0, sigma)
+            nll(&d.y, &m0, w0, sigma).1
         );
         let wf = predictability::assess(&out.final_fit.params, d).weight;
         let differ = w0
@@ -1309,11 +1311,12 @@ fn spans(c: &foreign::ForeignCase) {
                 let rw = predictability::assess(&p, rd).weight;
                 let rm = calibrate::output(&p, rd).unwrap();
                 let r = nll(&rd.y, &rm, &rw, noise::sigma(&rd.y));
-                tot += r.split_whitespace().nth(1).unwrap().parse::<f64>().unwrap();
+                tot += r.0;
                 println!(
-                    "NLL {} +{e} from {v0:.3e} -> {:.3e} {rn}: {r}",
+                    "NLL {} +{e} from {v0:.3e} -> {:.3e} {rn}: {}",
                     c.label(),
-                    p.effects.get(effect)
+                    p.effects.get(effect),
+                    r.1
                 );
             }
             println!("NLL {} +{e} from {v0:.3e}: both {tot:.0}", c.label());
@@ -1323,17 +1326,9 @@ fn spans(c: &foreign::ForeignCase) {
         let w = predictability::assess(&p, d).weight;
         let model = calibrate::output(&p, d).unwrap();
         let mut members = Vec::new();
-        for (ip, fp) in [(1e-3, 5e-3), (1e-2, 5e-2)] {
+        for st in &ensembles {
             for m in 0..4 {
-                let mut q = p;
-                for (param, inertial, signs) in moves {
-                    let share = scale * if inertial { ip } else { fp };
-                    let v = calibrate::get(&p, param);
-                    if v > 0.0 {
-                        calibrate::set(&mut q, param, v * (1.0 + signs[m] * share));
-                    }
-                }
-                members.push(calibrate::output(&q, d).unwrap());
+                members.push(calibrate::output(&predictability::member(&p, m, st), d).unwrap());
             }
         }
         let levels = predictability::span_levels(&d.y, &model, &w, sigma, d.sample_period_s);
@@ -1344,7 +1339,7 @@ fn spans(c: &foreign::ForeignCase) {
             println!(
                 "NLL {} {name} {rn}: {}",
                 c.label(),
-                nll(&rd.y, &rm, &rw, rs)
+                nll(&rd.y, &rm, &rw, rs).1
             );
         }
         let kept = w.iter().filter(|x| **x >= 0.5).count() as f64 / w.len() as f64;
@@ -1384,8 +1379,8 @@ fn spans(c: &foreign::ForeignCase) {
 /// Negative log-likelihood (nats, constant dropped) of `y` under the model: N(m, σ²) on the
 /// predictable rows; on each unpredictable run of rows N(m, σ² + 2 L²), L the model's RMS
 /// over the run (two independent signals of level L differ by √2 L in RMS). Returns the
-/// total and its parts.
-fn nll(y: &[f64], m: &[f64], w: &[f64], sigma: f64) -> String {
+/// total and a line with its parts.
+fn nll(y: &[f64], m: &[f64], w: &[f64], sigma: f64) -> (f64, String) {
     let s2 = sigma * sigma;
     let n = y.len();
     let (mut pred, mut unpred, mut logv, mut np) = (0.0, 0.0, 0.0, 0usize);
@@ -1408,12 +1403,10 @@ fn nll(y: &[f64], m: &[f64], w: &[f64], sigma: f64) -> String {
         }
         logv += 0.5 * (k - a) as f64 * (v / s2).ln();
     }
-    format!(
+    let total = pred + unpred + logv;
+    let line = format!(
         "total {:.0} = pred {:.0} ({} rows) + unpred {:.0} + logvar {:.0}",
-        pred + unpred + logv,
-        pred,
-        np,
-        unpred,
-        logv
-    )
+        total, pred, np, unpred, logv
+    );
+    (total, line)
 }

@@ -102,9 +102,10 @@ impl Predictability {
     }
 }
 
-/// Moves each perturbed parameter of `p` by its member's sign times its share; the
-/// stiffness needs the measured form (as [`calibrate::set`]).
-fn member(p: &ActuatorParams, m: usize, s: &Settings) -> ActuatorParams {
+/// Ensemble member `m` (0–3, repeating) of `p` under `s`: each perturbed parameter moved by
+/// its member's sign times its share; the stiffness needs the measured form (as
+/// [`calibrate::set`]).
+pub fn member(p: &ActuatorParams, m: usize, s: &Settings) -> ActuatorParams {
     let mut q = *p;
     for (param, inertial, signs) in MOVES {
         let share = if inertial {
