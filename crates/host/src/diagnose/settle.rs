@@ -79,7 +79,7 @@ pub(super) fn settle_seeded(
         };
     }
     let w = weigh(&p, data, on);
-    let mut fit = calibrate::polish(&p, knobs, &w, 20);
+    let (mut fit, w) = own_rows(calibrate::polish(&p, knobs, &w, 20), data, on);
     fit.cost_start = calibrate::cost(start, &w);
     fit.moved = moved;
     (fit, w)
@@ -127,7 +127,7 @@ pub(super) fn fine_search(
         }
         let p = calibrate::polish_point(&q, knobs, own, 20).params;
         let w = weigh(&p, data, on);
-        Some((calibrate::polish(&p, knobs, &w, 20), w))
+        Some(own_rows(calibrate::polish(&p, knobs, &w, 20), data, on))
     };
     match rayon::join(|| run(0), || run(1)) {
         (Some(a), Some(b)) => {
@@ -136,6 +136,17 @@ pub(super) fn fine_search(
         }
         (a, b) => a.or(b),
     }
+}
+
+/// `fit` with the records weighted by its own predictability and its cost taken there: a
+/// polish moves the point it was weighted at, and near a lightly damped resonance a move of
+/// a few per mille can change which of two coexisting responses a burst takes and whether
+/// copies of the model agree on it, so the rows of the point polished from are not the
+/// fit's own.
+fn own_rows(mut fit: Fit, data: &[Data], on: bool) -> (Fit, Vec<Data>) {
+    let w = weigh(&fit.params, data, on);
+    fit.cost = calibrate::cost(&fit.params, &w);
+    (fit, w)
 }
 
 /// The initial step of [`fine_search`], in units of the exploration box
