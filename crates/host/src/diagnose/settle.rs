@@ -43,9 +43,10 @@ pub(super) fn weigh_smooth(p: &ActuatorParams, data: &[Data], on: bool) -> Vec<D
 /// [`calibrate::polish_point`] on the records as the searches see them,
 /// [`calibrate::thinned`]) with those rows taken anew under each result, because they depend
 /// on the parameters. From within a percent or so the fit is polished on every row the fine
-/// ensemble calls predictable ([`predictability::assess`]), which are also the rows it is
-/// reported and judged on. Returns the fit (plain costs on those rows, with standard errors)
-/// and the records so weighted.
+/// ensemble calls predictable ([`predictability::assess`]), and the records are weighted
+/// anew at the polished point ([`own_rows`]): those rows, the fit's own, are the rows it is
+/// reported and judged on. Returns the fit (plain costs on its own rows; the standard errors
+/// from the polish's rows) and the records so weighted.
 pub(super) fn settle(
     start: &ActuatorParams,
     knobs: &[Knob],
