@@ -5,7 +5,7 @@
 
 use super::kin;
 use super::search::Refit;
-use super::settle::{common_rows, floor_cost, floor_cost_sd};
+use super::settle::{common_rows, floor_cost, floor_cost_sd, polish_on_own_rows};
 use super::{rms_nrmse, Ctx, Options, Rejection, Step};
 use crate::calibrate::{self, Data, Fit, Knob, Param, Point};
 use crate::noise;
@@ -237,12 +237,10 @@ pub(super) fn judge(
         .map(|(r, more)| {
             let mut best: Option<Alt> = None;
             for (i, f) in std::iter::once(r.fit).chain(more).enumerate() {
-                let own = cx.weigh(&f.params);
-                let mut f = calibrate::polish(&f.params, &r.knobs, &own, 8);
                 // The polish can move it to where other rows are predictable: its rows
                 // and cost are taken anew where it ended.
-                let own = cx.weigh(&f.params);
-                f.cost = calibrate::cost(&f.params, &own);
+                let (f, own) =
+                    polish_on_own_rows(&f.params, &r.knobs, cx.data, cx.opts.predictability, 8);
                 let common = common_rows(cx.data, wdata, &own);
                 let fit_c = calibrate::cost(&f.params, &common);
                 let cur_c = calibrate::cost(&cur.params, &common);

@@ -44,7 +44,7 @@ pub(super) fn weigh_smooth(p: &ActuatorParams, data: &[Data], on: bool) -> Vec<D
 /// [`calibrate::thinned`]) with those rows taken anew under each result, because they depend
 /// on the parameters. From within a percent or so the fit is polished on every row the fine
 /// ensemble calls predictable ([`predictability::assess`]), and the records are weighted
-/// anew at the polished point ([`own_rows`]): those rows, the fit's own, are the rows it is
+/// anew at the polished point ([`polish_on_own_rows`]): those rows, the fit's own, are the rows it is
 /// reported and judged on. Returns the fit (plain costs on its own rows; the standard errors
 /// from the polish's rows) and the records so weighted.
 pub(super) fn settle(
@@ -79,8 +79,7 @@ pub(super) fn settle_seeded(
             calibrate::polish_point(&q, knobs, &calibrate::thinned(&w), 20).params
         };
     }
-    let w = weigh(&p, data, on);
-    let (mut fit, w) = own_rows(calibrate::polish(&p, knobs, &w, 20), data, on);
+    let (mut fit, w) = polish_on_own_rows(&p, knobs, data, on, 20);
     fit.cost_start = calibrate::cost(start, &w);
     fit.moved = moved;
     (fit, w)
@@ -127,8 +126,7 @@ pub(super) fn fine_search(
             return None;
         }
         let p = calibrate::polish_point(&q, knobs, own, 20).params;
-        let w = weigh(&p, data, on);
-        Some(own_rows(calibrate::polish(&p, knobs, &w, 20), data, on))
+        Some(polish_on_own_rows(&p, knobs, data, on, 20))
     };
     match rayon::join(|| run(0), || run(1)) {
         (Some(a), Some(b)) => {
@@ -139,12 +137,21 @@ pub(super) fn fine_search(
     }
 }
 
-/// `fit` with the records weighted by its own predictability and its cost taken there: a
-/// polish moves the point it was weighted at, and near a lightly damped resonance a move of
-/// a few per mille can change which of two coexisting responses a burst takes and whether
-/// copies of the model agree on it, so the rows of the point polished from are not the
-/// fit's own.
-fn own_rows(mut fit: Fit, data: &[Data], on: bool) -> (Fit, Vec<Data>) {
+/// [`calibrate::polish`] of `p` (at most `patience` evaluations per knob) on the records
+/// weighted by `p`'s predictability, returned with the records weighted anew at the
+/// polished point and its cost taken there: a polish moves the point it was weighted at, and
+/// near a lightly damped resonance a move of a few per mille can change which of two
+/// coexisting responses a burst takes and whether copies of the model agree on it, so the
+/// rows of the point polished from are not the fit's own (its standard errors are the
+/// polish's, on those rows).
+pub(super) fn polish_on_own_rows(
+    p: &ActuatorParams,
+    knobs: &[Knob],
+    data: &[Data],
+    on: bool,
+    patience: usize,
+) -> (Fit, Vec<Data>) {
+    let mut fit = calibrate::polish(p, knobs, &weigh(p, data, on), patience);
     let w = weigh(&fit.params, data, on);
     fit.cost = calibrate::cost(&fit.params, &w);
     (fit, w)
