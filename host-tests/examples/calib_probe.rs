@@ -90,6 +90,10 @@ fn main() {
             );
             continue;
         }
+        if std::env::var("IDENT").is_ok() {
+            witness(&c, None);
+            continue;
+        }
         if std::env::var("ONLY").is_ok() {
             only(&c);
             continue;
@@ -279,6 +283,10 @@ fn main() {
         }
         if std::env::var("TRAP").is_ok() {
             trap(&out.final_fit.params, &out.base.params, d, &te);
+            continue;
+        }
+        if std::env::var("WITNESS").is_ok() {
+            witness(&c, Some((&out.final_fit.params, &out.final_fit.knobs)));
             continue;
         }
         if std::env::var("VAL").is_ok() {
@@ -871,6 +879,67 @@ pub fn val(c: &foreign::ForeignCase, ms: &[(&str, &ActuatorParams)]) {
             w.weight.iter().filter(|x| **x > 0.5).count(),
             fl,
             row.join(", ")
+        );
+    }
+}
+
+/// The suite's identifiability witness (`diagnose_foreign.rs`: the truth with the hidden
+/// effect removed, the default set and a mesh damping polished from there on the truth's
+/// predictable rows of both records, and the same searched locally before the polish) and,
+/// when given, `fin` (what `diagnose` ended with, with its knobs `fk`, as it is and polished
+/// on those rows), each on those rows of each record as a ratio to the truth's NRMSE there:
+/// whether a model without the effect follows the records as well as the truth.
+pub fn witness(c: &foreign::ForeignCase, fin: Option<(&ActuatorParams, &[calibrate::Knob])>) {
+    let foreign::Kind::Single(e) = c.kind else {
+        return;
+    };
+    if let Some((f, _)) = fin {
+        println!(
+            "WITNESS {}: truth {:?}; final effects {:?}",
+            c.label(),
+            c.expected,
+            geared_servo::Effect::ALL
+                .iter()
+                .filter(|e| f.effects.get(**e) != 0.0)
+                .map(|e| (e.name(), f.effects.get(*e)))
+                .collect::<Vec<_>>()
+        );
+    }
+    let mut t = calibrate::with_measured_stiffness(&c.truth).unwrap();
+    t.sample_period_s = c.estimation.sample_period_s;
+    let we = predictability::weigh(&t, &c.estimation).0;
+    let wv = predictability::weigh(&t, &c.validation).0;
+    let mut start = t;
+    start.effects.set(e, 0.0);
+    let mv = c.estimation.max_abs_v().max(c.validation.max_abs_v());
+    let mut knobs = calibrate::default_knobs(&start, mv);
+    if !knobs
+        .iter()
+        .any(|k| k.param == Param::Effect(geared_servo::Effect::MeshDamping))
+    {
+        knobs.push(calibrate::knob(
+            &start,
+            Param::Effect(geared_servo::Effect::MeshDamping),
+            mv,
+        ));
+    }
+    let both = [we.clone(), wv.clone()];
+    let w = calibrate::polish(&start, &knobs, &both, 20).params;
+    let q = calibrate::refine(&start, &knobs, &both);
+    let ws = calibrate::polish(&q, &knobs, &both, 20).params;
+    // The final, polished on the truth's rows too (a witness may be polished there).
+    let fp = fin.map(|(f, fk)| (*f, calibrate::polish(f, fk, &both, 20).params));
+    for (name, d) in [("estimation", &we), ("validation", &wv)] {
+        let tn = calibrate::nrmse(&t, d);
+        let r = |p: &ActuatorParams| calibrate::nrmse(p, d) / tn;
+        let finals = fp
+            .map(|(f, p)| format!(", final x{:.3}, final polished x{:.3}", r(&f), r(&p)))
+            .unwrap_or_default();
+        println!(
+            "WITNESS {} {name}: truth {tn:.4}; polished x{:.3}, searched x{:.3}{finals}",
+            c.label(),
+            r(&w),
+            r(&ws),
         );
     }
 }

@@ -35,9 +35,9 @@ fn names(step: &Step, e: Effect) -> bool {
 
 /// Whether the records can show a case's hidden effect at all, and the evidence: a *witness*
 /// — the true unit with the effect removed and the default set (with the background mesh
-/// damping) refitted on both records together, from the truth, on the truth's predictable
-/// rows — against the truth on those rows, per record: (estimation truth, witness,
-/// validation truth, witness).
+/// damping) refitted on both records together, from the truth (polished, and searched
+/// locally then polished: the better), on the truth's predictable rows — against the truth
+/// on those rows, per record: (estimation truth, witness, validation truth, witness).
 struct Identifiability {
     identifiable: bool,
     nrmse: [f64; 4],
@@ -77,17 +77,35 @@ fn identifiability(case: &ForeignCase) -> Identifiability {
         ));
     }
     let both = [we.clone(), wv.clone()];
-    let w = calibrate::polish(&start, &knobs, &both, 20);
-    let nrmse = [
-        calibrate::nrmse(&t, &we),
-        calibrate::nrmse(&w.params, &we),
-        calibrate::nrmse(&t, &wv),
-        calibrate::nrmse(&w.params, &wv),
-    ];
+    // Two searches from the truth without the effect: a polish, and a local search (CMA-ES,
+    // `calibrate::refine`) before the polish. A polish alone stalls where the effect's
+    // removal must be made up by a parameter far from the truth's (a breakaway friction by a
+    // running friction raised by a tenth or more: on the units stiction_ratio/30, /34, /37 of
+    // the held-out sets the polish stopped at 1.15-1.95x the truth on the estimation record,
+    // the local search at 1.00-1.06x on both). The witness is the one nearer the truth on the
+    // record where it is furthest from it.
+    let polished = calibrate::polish(&start, &knobs, &both, 20).params;
+    let searched =
+        calibrate::polish(&calibrate::refine(&start, &knobs, &both), &knobs, &both, 20).params;
+    let ratios = |w: &ActuatorParams| {
+        [
+            calibrate::nrmse(&t, &we),
+            calibrate::nrmse(w, &we),
+            calibrate::nrmse(&t, &wv),
+            calibrate::nrmse(w, &wv),
+        ]
+    };
+    let worst = |n: &[f64; 4]| (n[1] / n[0]).max(n[3] / n[2]);
+    let (np, ns) = (ratios(&polished), ratios(&searched));
+    let (w, nrmse) = if worst(&ns) < worst(&np) {
+        (searched, ns)
+    } else {
+        (polished, np)
+    };
     Identifiability {
         identifiable: nrmse[1] > WITNESS_RATIO * nrmse[0] || nrmse[3] > WITNESS_RATIO * nrmse[2],
         nrmse,
-        witness: Some(w.params),
+        witness: Some(w),
     }
 }
 
