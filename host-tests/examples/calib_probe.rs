@@ -90,6 +90,22 @@ fn main() {
             );
             continue;
         }
+        if std::env::var("SIGMA").is_ok() {
+            // The record's noise level as `diagnose` estimates it against the noise added.
+            for (name, d, fl) in [
+                ("estimation", &c.estimation, c.estimation_floor),
+                ("validation", &c.validation, c.validation_floor),
+            ] {
+                let truth = fl * d.norm / (d.y.len() as f64).sqrt();
+                let est = noise::sigma(&d.y);
+                println!(
+                    "SIGMA {} {name}: estimated {est:.4e}, added {truth:.4e}, ratio {:.3}",
+                    c.label(),
+                    est / truth
+                );
+            }
+            continue;
+        }
         if std::env::var("IDENT").is_ok() {
             witness(&c, None);
             continue;
