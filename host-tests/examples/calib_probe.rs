@@ -301,6 +301,10 @@ fn main() {
             trap(&out.final_fit.params, &out.base.params, d, &te);
             continue;
         }
+        if std::env::var("VSTART").is_ok() {
+            valley_starts(&c, &out.final_fit);
+            continue;
+        }
         if std::env::var("WITNESS").is_ok() {
             witness(&c, Some((&out.final_fit.params, &out.final_fit.knobs)));
             continue;
@@ -895,6 +899,66 @@ pub fn val(c: &foreign::ForeignCase, ms: &[(&str, &ActuatorParams)]) {
             w.weight.iter().filter(|x| **x > 0.5).count(),
             fl,
             row.join(", ")
+        );
+    }
+}
+
+/// Starts along the friction valley from `fin` (a model without stiction): the stiction
+/// ratio r with both Coulomb frictions scaled by 2/(1 + r) (the mean of the breakaway and
+/// the running friction kept), each weighted at its point, polished with the ratio free and
+/// weighted anew (as `settle::polish_on_own_rows`); against `fin` on the rows both keep, on
+/// each one's own rows, and the floor of each record there.
+pub fn valley_starts(c: &foreign::ForeignCase, fin: &calibrate::Fit) {
+    let data = [c.estimation.clone(), c.validation.clone()];
+    let sig: Vec<f64> = data.iter().map(|d| noise::sigma(&d.y)).collect();
+    let weigh = |p: &ActuatorParams| -> Vec<calibrate::Data> {
+        data.iter().map(|d| predictability::weigh(p, d).0).collect()
+    };
+    let floor = |w: &[calibrate::Data]| -> f64 {
+        let f: f64 = w
+            .iter()
+            .zip(&sig)
+            .map(|(d, s)| noise::floor_nrmse(*s, &d.weight, d.norm).powi(2))
+            .sum::<f64>()
+            / w.len() as f64;
+        f.sqrt()
+    };
+    let wf = weigh(&fin.params);
+    let fc = calibrate::cost(&fin.params, &wf);
+    println!(
+        "VSTART {}: final {:.4} on its rows (floor {:.4})",
+        c.label(),
+        fc.sqrt(),
+        floor(&wf)
+    );
+    let mv = c.estimation.max_abs_v().max(c.validation.max_abs_v());
+    let mut knobs = fin.knobs.clone();
+    knobs.push(calibrate::knob(
+        &fin.params,
+        Param::Effect(geared_servo::Effect::StictionRatio),
+        mv,
+    ));
+    for r in [1.5, 2.0, 2.5, 3.0] {
+        let mut q = fin.params;
+        q.effects.set(geared_servo::Effect::StictionRatio, r);
+        q.motor.coulomb_friction_nm *= 2.0 / (1.0 + r);
+        q.load.coulomb_friction_nm *= 2.0 / (1.0 + r);
+        let f = calibrate::polish(&q, &knobs, &weigh(&q), 20);
+        let w = weigh(&f.params);
+        let common: Vec<calibrate::Data> = data
+            .iter()
+            .zip(wf.iter().zip(&w))
+            .map(|(d, (a, b))| d.with_rows_both_keep(a, b))
+            .collect();
+        println!(
+            "VSTART {} r0 {r}: ratio {:.3}; own {:.4} (floor {:.4}); on the rows both keep {:.4} against the final's {:.4} (floor {:.4})",
+            c.label(),
+            f.params.effects.get(geared_servo::Effect::StictionRatio),
+            calibrate::cost(&f.params, &w).sqrt(),
+            floor(&w),
+            calibrate::cost(&f.params, &common).sqrt(),
+            calibrate::cost(&fin.params, &common).sqrt(),
+            floor(&common)
         );
     }
 }
