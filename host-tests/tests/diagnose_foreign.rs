@@ -282,7 +282,7 @@ struct Row {
 // after three judge changes made on them, so they are no longer held out; draws 12–14,
 // 15–17, 18–20 and 21–23 have since been run too (README.md's table, docs/diagnose.md);
 // draws 24–26 since (47 of 48), 27–29 (40 of 48), 30–32 (44 of 48), 33–35 (43 of 48), 36–38 (45 of 48)
-// and 39–41 (47 of 48); 42–44 are held out. Those figures counted a pair right with a third,
+// 39–41 (47 of 48) and 42–44 (46 of 48); 45–47 are held out. Those figures counted a pair right with a third,
 // spurious step; since 2026-11-29 `verdict_right` does not: draws 21–23, 47 → 45 of 48. They
 // also used the weaker witness of `identifiability` before 2026-12-02, which counted eleven
 // stiction units wrong that the records cannot show: docs/diagnose.md).
