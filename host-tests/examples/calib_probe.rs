@@ -963,16 +963,16 @@ pub fn valley_starts(c: &foreign::ForeignCase, fin: &calibrate::Fit) {
     }
 }
 
-/// The suite's identifiability witness (`diagnose_foreign.rs`: the truth with the hidden
-/// effect removed, the default set and a mesh damping polished from there on the truth's
-/// predictable rows of both records, and the same searched locally before the polish) and,
-/// when given, `fin` (what `diagnose` ended with, with its knobs `fk`, as it is and polished
-/// on those rows), each on those rows of each record as a ratio to the truth's NRMSE there:
-/// whether a model without the effect follows the records as well as the truth.
+/// The suite's identifiability witness ([`foreign::identifiability`]: the polish and the
+/// local search then the polish, from the truth without the hidden effect) and, when given,
+/// `fin` (what `diagnose` ended with, with its knobs `fk`, as it is and polished on the
+/// truth's rows), each on the truth's predictable rows of each record as a ratio to the
+/// truth's NRMSE there: whether a model without the effect follows the records as well as
+/// the truth.
 pub fn witness(c: &foreign::ForeignCase, fin: Option<(&ActuatorParams, &[calibrate::Knob])>) {
-    let foreign::Kind::Single(e) = c.kind else {
+    if !matches!(c.kind, foreign::Kind::Single(_)) {
         return;
-    };
+    }
     if let Some((f, _)) = fin {
         println!(
             "WITNESS {}: truth {:?}; final effects {:?}",
@@ -985,41 +985,33 @@ pub fn witness(c: &foreign::ForeignCase, fin: Option<(&ActuatorParams, &[calibra
                 .collect::<Vec<_>>()
         );
     }
+    let id = foreign::identifiability(c);
     let mut t = calibrate::with_measured_stiffness(&c.truth).unwrap();
     t.sample_period_s = c.estimation.sample_period_s;
     let we = predictability::weigh(&t, &c.estimation).0;
     let wv = predictability::weigh(&t, &c.validation).0;
-    let mut start = t;
-    start.effects.set(e, 0.0);
-    let mv = c.estimation.max_abs_v().max(c.validation.max_abs_v());
-    let mut knobs = calibrate::default_knobs(&start, mv);
-    if !knobs
-        .iter()
-        .any(|k| k.param == Param::Effect(geared_servo::Effect::MeshDamping))
-    {
-        knobs.push(calibrate::knob(
-            &start,
-            Param::Effect(geared_servo::Effect::MeshDamping),
-            mv,
-        ));
-    }
     let both = [we.clone(), wv.clone()];
-    let w = calibrate::polish(&start, &knobs, &both, 20).params;
-    let q = calibrate::refine(&start, &knobs, &both);
-    let ws = calibrate::polish(&q, &knobs, &both, 20).params;
     // The final, polished on the truth's rows too (a witness may be polished there).
     let fp = fin.map(|(f, fk)| (*f, calibrate::polish(f, fk, &both, 20).params));
-    for (name, d) in [("estimation", &we), ("validation", &wv)] {
+    for (i, (name, d)) in [("estimation", &we), ("validation", &wv)]
+        .into_iter()
+        .enumerate()
+    {
         let tn = calibrate::nrmse(&t, d);
         let r = |p: &ActuatorParams| calibrate::nrmse(p, d) / tn;
+        let tried: Vec<String> = id
+            .tried
+            .iter()
+            .zip(["polished", "searched"])
+            .map(|((_, n), what)| format!("{what} x{:.3}", n[2 * i + 1] / n[2 * i]))
+            .collect();
         let finals = fp
             .map(|(f, p)| format!(", final x{:.3}, final polished x{:.3}", r(&f), r(&p)))
             .unwrap_or_default();
         println!(
-            "WITNESS {} {name}: truth {tn:.4}; polished x{:.3}, searched x{:.3}{finals}",
+            "WITNESS {} {name}: truth {tn:.4}; {}{finals}",
             c.label(),
-            r(&w),
-            r(&ws),
+            tried.join(", "),
         );
     }
 }

@@ -14,8 +14,9 @@
 use geared_servo::{ActuatorParams, Effect};
 use geared_servo_host::calibrate::{self, Param, BASE_KNOBS};
 use geared_servo_host::diagnose::{Options, Outcome, Step};
-use geared_servo_host::predictability;
-use geared_servo_host_tests::foreign::{self, ForeignCase, Kind, FINE_STEP_S};
+use geared_servo_host_tests::foreign::{
+    self, identifiability, ForeignCase, Kind, FINE_STEP_S, WITNESS_RATIO,
+};
 use std::time::{Duration, Instant};
 
 /// Least share of right verdicts.
@@ -31,82 +32,6 @@ const NRMSE_RATIO: f64 = 1.2;
 /// Whether step effect `s` (or one it cannot be told from) is `e`.
 fn names(step: &Step, e: Effect) -> bool {
     step.effect == e || step.indistinguishable_from.iter().any(|(x, _)| *x == e)
-}
-
-/// Whether the records can show a case's hidden effect at all, and the evidence: a *witness*
-/// — the true unit with the effect removed and the default set (with the background mesh
-/// damping) refitted on both records together, from the truth (polished, and searched
-/// locally then polished: the better), on the truth's predictable rows — against the truth
-/// on those rows, per record: (estimation truth, witness, validation truth, witness).
-struct Identifiability {
-    identifiable: bool,
-    nrmse: [f64; 4],
-    /// The witness's parameters (a single effect's case).
-    witness: Option<ActuatorParams>,
-}
-
-/// A witness within this factor of the truth's NRMSE on both records shows that the records
-/// cannot tell the effect from the base set (an existence proof: another explanation exists
-/// that needs no effect; a weaker calibration could only fail to find one, never invent it).
-const WITNESS_RATIO: f64 = 1.1;
-
-fn identifiability(case: &ForeignCase) -> Identifiability {
-    let Kind::Single(e) = case.kind else {
-        return Identifiability {
-            identifiable: true,
-            nrmse: [f64::NAN; 4],
-            witness: None,
-        };
-    };
-    let mut t = calibrate::with_measured_stiffness(&case.truth).unwrap();
-    t.sample_period_s = case.estimation.sample_period_s;
-    let (we, _) = predictability::weigh(&t, &case.estimation);
-    let (wv, _) = predictability::weigh(&t, &case.validation);
-    let mut start = t;
-    start.effects.set(e, 0.0);
-    let max_v = case.estimation.max_abs_v().max(case.validation.max_abs_v());
-    let mut knobs = calibrate::default_knobs(&start, max_v);
-    if !knobs
-        .iter()
-        .any(|k| k.param == Param::Effect(Effect::MeshDamping))
-    {
-        knobs.push(calibrate::knob(
-            &start,
-            Param::Effect(Effect::MeshDamping),
-            max_v,
-        ));
-    }
-    let both = [we.clone(), wv.clone()];
-    // Two searches from the truth without the effect: a polish, and a local search (CMA-ES,
-    // `calibrate::refine`) before the polish. A polish alone stalls where the effect's
-    // removal must be made up by a parameter far from the truth's (a breakaway friction by a
-    // running friction raised by a tenth or more: on the units stiction_ratio/30, /34, /37 of
-    // the held-out sets the polish stopped at 1.15-1.95x the truth on the estimation record,
-    // the local search at 1.00-1.06x on both). The witness is the one nearer the truth on the
-    // record where it is furthest from it.
-    let polished = calibrate::polish(&start, &knobs, &both, 20).params;
-    let searched =
-        calibrate::polish(&calibrate::refine(&start, &knobs, &both), &knobs, &both, 20).params;
-    let ratios = |w: &ActuatorParams| {
-        [
-            calibrate::nrmse(&t, &we),
-            calibrate::nrmse(w, &we),
-            calibrate::nrmse(&t, &wv),
-            calibrate::nrmse(w, &wv),
-        ]
-    };
-    let worst = |n: &[f64; 4]| (n[1] / n[0]).max(n[3] / n[2]);
-    let (np, ns) = (ratios(&polished), ratios(&searched));
-    let (w, nrmse) = if worst(&ns) < worst(&np) {
-        (searched, ns)
-    } else {
-        (polished, np)
-    };
-    Identifiability {
-        identifiable: nrmse[1] > WITNESS_RATIO * nrmse[0] || nrmse[3] > WITNESS_RATIO * nrmse[2],
-        nrmse,
-        witness: Some(w),
-    }
 }
 
 /// Whether `step` is the unit's own tachometer gain error rather than an effect the suite
