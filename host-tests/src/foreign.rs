@@ -876,6 +876,8 @@ pub struct Identifiability {
 /// that needs no effect; a weaker calibration could only fail to find one, never invent it).
 pub const WITNESS_RATIO: f64 = 1.1;
 
+/// The [`Identifiability`] of `case`'s hidden effect (a clean, pair or out-of-library case
+/// counts as identifiable, without a witness).
 ///
 /// # Panics
 /// When the case's truth is not a valid parameter set (the suite makes them valid).
@@ -918,14 +920,8 @@ pub fn identifiability(case: &ForeignCase) -> Identifiability {
     let polished = calibrate::polish(&start, &knobs, &both, 20).params;
     let searched =
         calibrate::polish(&calibrate::refine(&start, &knobs, &both), &knobs, &both, 20).params;
-    let ratios = |w: &ActuatorParams| {
-        [
-            calibrate::nrmse(&t, &we),
-            calibrate::nrmse(w, &we),
-            calibrate::nrmse(&t, &wv),
-            calibrate::nrmse(w, &wv),
-        ]
-    };
+    let (te, tv) = (calibrate::nrmse(&t, &we), calibrate::nrmse(&t, &wv));
+    let ratios = |w: &ActuatorParams| [te, calibrate::nrmse(w, &we), tv, calibrate::nrmse(w, &wv)];
     let worst = |n: &[f64; 4]| (n[1] / n[0]).max(n[3] / n[2]);
     let (np, ns) = (ratios(&polished), ratios(&searched));
     let (w, nrmse) = if worst(&ns) < worst(&np) {
