@@ -155,6 +155,27 @@ pub(super) struct Judged {
     distortion: f64,
 }
 
+impl Judged {
+    /// One line for the debug log: the candidate, its value, its cost ratio and ΔBIC
+    /// against the reference, its implausibility and distortion, and whether it may be
+    /// added (or why not).
+    pub(super) fn summary(&self) -> String {
+        format!(
+            "{} = {:e}: ratio {:.4}, ΔBIC {:.1}, implausibility {:.2}, distortion {:.3}, {}",
+            self.effect.name(),
+            self.value,
+            self.ratio,
+            self.delta_bic,
+            self.implausibility,
+            self.distortion,
+            match &self.admissible {
+                Ok(()) => "admissible".to_string(),
+                Err(e) => e.clone(),
+            }
+        )
+    }
+}
+
 /// Change of the already-calibrated parameters from `cur` to `f` (squared, internal
 /// coordinates): the file's values and the current fit are the prior, and an explanation
 /// that needs a 30 % change of every inertia is the less likely one.
