@@ -881,7 +881,12 @@ pub fn thin(name: &str, p: &ActuatorParams, d: &calibrate::Data) {
 /// The validation record under each model: its kept share, each model's NRMSE on each one's
 /// kept rows, and the floor there.
 pub fn val(c: &foreign::ForeignCase, ms: &[(&str, &ActuatorParams)]) {
-    let v = &c.validation;
+    // `EST=1` beside `VAL=1`: the estimation record instead.
+    let v = if std::env::var("EST").is_ok() {
+        &c.estimation
+    } else {
+        &c.validation
+    };
     let sigma = noise::sigma(&v.y);
     let ws: Vec<calibrate::Data> = ms
         .iter()
