@@ -594,22 +594,7 @@ fn diagnose_records(
             (base.clone(), wdata, base, Vec::new())
         }
         Some(r) => {
-            // The settle searches on the smooth rows under the robust window loss, which
-            // forgives a few windows on another branch of the motion; from a model that
-            // follows one record well it can reach a point that follows the new one a little
-            // better and the first far worse on its plain rows (tach_gain/47 of the foreign
-            // suite: the estimation record 0.022 → 0.080 with the validation record's 250
-            // predictable rows in the fit, the cost of both no lower). The model as it was,
-            // polished on both records, competes on the rows both keep.
-            let settled = cx.settle(&r.final_fit.params, &r.final_fit.knobs, false);
-            let kept = settle::polish_on_own_rows(
-                &r.final_fit.params,
-                &r.final_fit.knobs,
-                data,
-                opts.predictability,
-                20,
-            );
-            let (mut fit, wdata, _) = better_on_common(kept, settled, data);
+            let (mut fit, wdata) = cx.settle(&r.final_fit.params, &r.final_fit.knobs, false);
             fit.cost_start = calibrate::cost(&nominal, &wdata);
             let mut base = r.base.clone();
             base.cost = calibrate::cost(&base.params, &wdata);
