@@ -594,40 +594,7 @@ fn diagnose_records(
             (base.clone(), wdata, base, Vec::new())
         }
         Some(r) => {
-            // The settle searches on the smooth rows under the robust window loss, which
-            // forgives a few windows on another branch of the motion: from a model that
-            // follows the first records it can reach one that follows the validation record
-            // a little better and the first records far worse on their plain rows
-            // (tach_gain/47 of the foreign suite: the estimation record 0.022 → 0.080, with
-            // the validation record's 250 predictable rows in the fit). Where it loses the
-            // first records (all but the last, the validation record) by more than
-            // `material_ratio` on the rows both keep, the model as the first pass left it,
-            // polished on every record, competes with it. Not always: a better cost can be a
-            // worse start for the search (motor_viscous/6, whose settle costs 1.08× there,
-            // ends partial and unexplained from the polished model).
-            let settled = cx.settle(&r.final_fit.params, &r.final_fit.knobs, false);
-            let kept = settle::polish_on_own_rows(
-                &r.final_fit.params,
-                &r.final_fit.knobs,
-                data,
-                opts.predictability,
-                20,
-            );
-            let common = settle::common_rows(data, &kept.1, &settled.1);
-            let n = data.len().saturating_sub(1).max(1);
-            let first = common.get(..n).unwrap_or(&common);
-            let (cs, ck) = (
-                calibrate::cost(&settled.0.params, first),
-                calibrate::cost(&kept.0.params, first),
-            );
-            let lost = cs > opts.material_ratio.powi(2) * ck;
-            log::debug!("second pass guard: settled {cs:.3e} kept {ck:.3e} on the first records' common rows, lost {lost}");
-            let (mut fit, wdata) = if lost {
-                let (f, w, _) = better_on_common(kept, settled, data);
-                (f, w)
-            } else {
-                settled
-            };
+            let (mut fit, wdata) = cx.settle(&r.final_fit.params, &r.final_fit.knobs, false);
             fit.cost_start = calibrate::cost(&nominal, &wdata);
             let mut base = r.base.clone();
             base.cost = calibrate::cost(&base.params, &wdata);
