@@ -143,6 +143,14 @@ pub fn speed_rescaled(p: &ActuatorParams, c: f64) -> Option<ActuatorParams> {
     Some(q)
 }
 
+/// Whether [`mirror`] exchanges `from` for `to` by rescaling every mechanical quantity (a
+/// tachometer gain against a viscous friction: exact only up to the winding's L/R, and for
+/// the load's friction up to its reflection through the gear ratio) rather than by
+/// exchanging one torque term (a hinge spring against gravity).
+pub fn rescales(from: Effect, to: Effect) -> bool {
+    [from, to].contains(&Effect::TachGain)
+}
+
 /// The model that explains a tachometer record as `p` does, with the effect `from` set back
 /// to `from_value` (the current model's) and `to` in its place, for the pairs of [`KIN`]
 /// whose exchange needs every mechanical quantity rescaled ([`speed_rescaled`]): a
@@ -152,9 +160,19 @@ pub fn speed_rescaled(p: &ActuatorParams, c: f64) -> Option<ActuatorParams> {
 /// taken as the motor's through the gear ratio (`b_m = b_L / N²`, exact where the gears are
 /// in contact). A local search cannot walk from one to the other (every calibrated quantity
 /// moves by the gain), so the search judges this point as one more refit of `to`
-/// ([`super::search::mirror_points`]). `None` for other pairs, or where the other
-/// explanation would need a negative friction (a tachometer that reads high is no
-/// friction).
+/// ([`super::search::mirror_points`]).
+///
+/// A hinge spring and gravity are the other such pair, without a rescaling: gravity's
+/// torque −T sin θ_L is, about the hanging position θ_L = 0 where the record starts, the
+/// spring −T θ_L (the plant takes that linear part into its exact transitions, docs/model.md),
+/// so the spring's extra stiffness k becomes a gravity torque T = k and back, every other
+/// quantity kept. The two part only at large load angles; a refit of one that found its
+/// basin through a global settle shows the other where its basin is (gravity_torque/50 and
+/// /51 of the foreign suite: the spring's global refit at the unit's T, gravity's own refits
+/// in a worse basin of the other parameters, so gravity was not even in the spring's class).
+///
+/// `None` for other pairs, or where the other explanation would need a negative friction (a
+/// tachometer that reads high is no friction), a negative torque or stiffness.
 pub fn mirror(
     p: &ActuatorParams,
     from: Effect,
@@ -195,6 +213,18 @@ pub fn mirror(
             }
             r.derived().ok()?;
             Some(r)
+        }
+        (Effect::HingeStiffness, Effect::GravityTorque)
+        | (Effect::GravityTorque, Effect::HingeStiffness) => {
+            // The part of the spring (or gravity) that the refit added, as the other.
+            let extra = p.effects.get(from) - from_value;
+            if !(extra > 0.0) {
+                return None;
+            }
+            q.effects.set(from, from_value);
+            q.effects.set(to, p.effects.get(to) + extra);
+            q.derived().ok()?;
+            Some(q)
         }
         _ => None,
     }
@@ -312,7 +342,65 @@ mod tests {
         let p = unit(Effect::TachGain, 0.05);
         assert!(mirror(&p, Effect::TachGain, 0.0, Effect::MotorViscous).is_none());
         assert!(mirror(&p, Effect::TachGain, 0.0, Effect::LoadViscous).is_none());
-        // Pairs without a rescaling have no mirror.
+        // Pairs that are not one model in other units have no mirror.
         assert!(mirror(&p, Effect::InputDelay, 0.0, Effect::TachLag).is_none());
+    }
+
+    /// 2 s of a `volts` V sine at 3 Hz, as the tachometer record of `p`: no burst that
+    /// rattles (a multisine's would make two models part sample by sample whatever they are:
+    /// MODEL.md), so that what the record shows of a model is its response.
+    fn sine_record(p: &ActuatorParams, volts: f64) -> Data {
+        let u = (0..4000)
+            .map(|k| volts * (std::f64::consts::TAU * 3.0 * k as f64 * H).sin())
+            .collect();
+        let mut d = data_of(u, H, Some(p));
+        d.output = "tach_voltage_v".into();
+        d
+    }
+
+    /// The largest |θ_L| of `p` over `d`'s input, degrees.
+    fn widest_swing_deg(p: &ActuatorParams, d: &Data) -> f64 {
+        let mut q = *p;
+        q.sample_period_s = H;
+        let plant = geared_servo::Plant::new(&q).unwrap();
+        let mut st = geared_servo::PlantState::REST;
+        d.volts
+            .iter()
+            .map(|&v| f64::from(plant.step(&mut st, v as f32).load_angle_rad).abs())
+            .fold(0.0, f64::max)
+            .to_degrees()
+    }
+
+    #[test]
+    fn a_hanging_arm_swinging_a_little_is_a_hinge_spring_through_the_mirror() {
+        // A gravity torque of 0.1 N·m is a spring of 0.1 N·m/rad about the hanging position.
+        let p = unit(Effect::GravityTorque, 0.1);
+        let m = mirror(&p, Effect::GravityTorque, 0.0, Effect::HingeStiffness).unwrap();
+        assert_eq!(m.effects.get(Effect::GravityTorque), 0.0);
+        assert_eq!(m.effects.get(Effect::HingeStiffness), 0.1);
+        // What a change of 1 % of the torque does to a record, for scale.
+        let mut off = p;
+        off.effects.set(Effect::GravityTorque, 0.101);
+        // Small swings (1 V: θ_L within 2°, sin θ_L = θ_L to 10⁻⁴): the two read alike, far
+        // closer than a 1 % change of the torque (measured: 1.7e-5 against 2.2e-3). Wide ones
+        // (20 V: θ_L to 87°) part them, several times further than that change (2.6e-2 against
+        // 1.3e-3): a record of wide swings tells them apart, and the mirror is a start there.
+        let small = sine_record(&p, 1.0);
+        let wide = sine_record(&p, 20.0);
+        let (a_small, a_wide) = (widest_swing_deg(&p, &small), widest_swing_deg(&p, &wide));
+        assert!(a_small < 2.0 && a_wide > 60.0, "{a_small}° {a_wide}°");
+        let e_small = nrmse(&m, &small);
+        assert!(e_small < 1e-4, "small swings: the mirror's NRMSE {e_small}");
+        assert!(nrmse(&off, &small) > 10.0 * e_small);
+        let e_wide = nrmse(&m, &wide);
+        assert!(e_wide > 10.0 * nrmse(&off, &wide), "wide swings: {e_wide}");
+        // And back, from a model that had a spring of its own already (only what the refit
+        // added moves); a refit that took some away has nothing to move.
+        let mut s = unit(Effect::HingeStiffness, 0.3);
+        let back = mirror(&s, Effect::HingeStiffness, 0.2, Effect::GravityTorque).unwrap();
+        assert_eq!(back.effects.get(Effect::HingeStiffness), 0.2);
+        assert!((back.effects.get(Effect::GravityTorque) - 0.1).abs() < 1e-12);
+        s.effects.set(Effect::HingeStiffness, 0.1);
+        assert!(mirror(&s, Effect::HingeStiffness, 0.2, Effect::GravityTorque).is_none());
     }
 }
