@@ -217,6 +217,9 @@ pub fn mirror(
         (Effect::HingeStiffness, Effect::GravityTorque)
         | (Effect::GravityTorque, Effect::HingeStiffness) => {
             // The part of the spring (or gravity) that the refit added, as the other.
+            if std::env::var("GS_NO_SG_MIRROR").is_ok() {
+                return None;
+            }
             let extra = p.effects.get(from) - from_value;
             if !(extra > 0.0) {
                 return None;

@@ -614,7 +614,17 @@ fn diagnose_records(
     // With the validation record now fitted too, an effect put first in its class may be
     // told apart from another member (judge::swap_in_class).
     if resume.is_some() {
-        if let Some(sw) = judge::swap_in_class(&cx, &cur, &wdata, &steps) {
+        let (swap, rejoin) = judge::swap_in_class(&cx, &cur, &wdata, &steps);
+        for (si, effect, value) in rejoin {
+            if let Some(st) = steps.get_mut(si) {
+                st.told_apart.retain(|r| r.effect != effect);
+                st.indistinguishable_from.push((effect, value));
+                if st.separate_by.is_empty() {
+                    st.separate_by = separating_measurement(st.effect, effect, &first.output);
+                }
+            }
+        }
+        if let Some(sw) = swap {
             if let Some(st) = steps.get_mut(sw.step) {
                 let k = sw
                     .fit
@@ -629,6 +639,7 @@ fn diagnose_records(
                     .and_then(|k| sw.fit.std_errors.get(k).copied())
                     .unwrap_or(f64::NAN);
                 st.indistinguishable_from.retain(|(e, _)| *e != sw.effect);
+                st.told_apart.retain(|r| r.effect != sw.effect);
                 st.separate_by = st
                     .indistinguishable_from
                     .first()
