@@ -1404,7 +1404,9 @@ mod tests {
             })
             .collect();
         let g = 0.09;
-        let verdict = |hidden: Effect| -> Option<(Effect, f64, judge::Swap)> {
+        // `told`: gravity comes as a member the first pass told apart, not as one of the
+        // class. Returns the swap, if any, and the members that rejoin the class.
+        let review = |hidden: Effect, told: bool| {
             let mut truth = unit;
             truth.effects.set(hidden, g);
             let clean = data_of(volts.clone(), h, Some(&truth));
@@ -1440,12 +1442,28 @@ mod tests {
                 delta_bic: f64::NAN,
                 scores: Vec::new(),
                 partial: false,
-                indistinguishable_from: vec![(Effect::GravityTorque, g)],
+                indistinguishable_from: if told {
+                    Vec::new()
+                } else {
+                    vec![(Effect::GravityTorque, g)]
+                },
                 separate_by: String::new(),
                 held_out: (f64::NAN, f64::NAN),
-                told_apart: Vec::new(),
+                told_apart: if told {
+                    vec![Rejection {
+                        effect: Effect::GravityTorque,
+                        value: g,
+                        nrmse_after: f64::NAN,
+                        reason: String::new(),
+                    }]
+                } else {
+                    Vec::new()
+                },
             };
-            let sw = judge::swap_in_class(&cx, &cur, &wdata, std::slice::from_ref(&step))?;
+            judge::swap_in_class(&cx, &cur, &wdata, std::slice::from_ref(&step))
+        };
+        let verdict = |hidden: Effect| -> Option<(Effect, f64, judge::Swap)> {
+            let sw = review(hidden, false).0?;
             let v = sw.fit.params.effects.get(sw.effect);
             eprintln!(
                 "{hidden}: swapped to {} = {v:.4}: {}; its step: NRMSE {:.4} -> {:.4}, ΔBIC {:.0}, held out {:.4} -> {:.4}",
@@ -1477,5 +1495,12 @@ mod tests {
             verdict(Effect::HingeStiffness).is_none(),
             "the spring stays"
         );
+        // A member the first pass told apart is tried alike: gravity that is there replaces
+        // the spring; gravity that is not neither replaces it nor rejoins its class (this
+        // record's large angles tell them apart).
+        let (sw, _) = review(Effect::GravityTorque, true);
+        assert_eq!(sw.map(|s| s.effect), Some(Effect::GravityTorque));
+        let (sw, rejoin) = review(Effect::HingeStiffness, true);
+        assert!(sw.is_none() && rejoin.is_empty(), "{rejoin:?}");
     }
 }
