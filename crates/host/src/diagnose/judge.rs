@@ -1049,7 +1049,7 @@ pub(super) fn swap_in_class(
             if was_told_apart && plausible {
                 // The records, fitted together, tell them apart the other way?
                 let back = evidence_on(cx, &cur.params, &fit.params, &common).ev;
-                if !(back.earns(opts.bic_threshold) && !back.immaterial) {
+                if !back.earns(opts.bic_threshold) || back.immaterial {
                     rejoin.push((si, other, calibrate::get(&fit.params, oparam)));
                 }
             }

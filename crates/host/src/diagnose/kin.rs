@@ -217,11 +217,8 @@ pub fn mirror(
         (Effect::HingeStiffness, Effect::GravityTorque)
         | (Effect::GravityTorque, Effect::HingeStiffness) => {
             // The part of the spring (or gravity) that the refit added, as the other.
-            if std::env::var("GS_NO_SG_MIRROR").is_ok() {
-                return None;
-            }
             let extra = p.effects.get(from) - from_value;
-            if !(extra > 0.0) {
+            if !extra.is_finite() || extra <= 0.0 {
                 return None;
             }
             q.effects.set(from, from_value);
