@@ -622,6 +622,16 @@ fn the_unit_in_the_files_constants_is_exact() {
     }
 }
 
+/// `c` diagnosed with the default options, printed, and required to end explained in exactly
+/// one step (the shape of the CI tests below, each of which then asks what that step says).
+fn diagnosed_in_one_step(c: &ForeignCase) -> Outcome {
+    let out = c.diagnose(&Options::default()).unwrap();
+    eprintln!("{}: {}", c.label(), fmt_steps(&out));
+    assert!(!out.unexplained, "{}", fmt_steps(&out));
+    assert_eq!(out.steps.len(), 1, "one step expected: {}", fmt_steps(&out));
+    out
+}
+
 /// A hanging arm whose records cannot tell its gravity from a hinge spring: on
 /// gravity_torque/29 the stepped sine swings the arm by a few degrees (a spring of stiffness
 /// T, exactly, in the plant's linear part), and the square wave's large swings fall in its
@@ -635,12 +645,8 @@ fn the_unit_in_the_files_constants_is_exact() {
 #[test]
 fn gravity_that_the_records_cannot_tell_from_a_spring_is_reported_beside_it() {
     let c = foreign::case(Kind::Single(Effect::GravityTorque), 29).unwrap();
-    let out = c.diagnose(&Options::default()).unwrap();
-    eprintln!("{}: {}", c.label(), fmt_steps(&out));
-    assert!(!out.unexplained, "{}", fmt_steps(&out));
-    let [step] = out.steps.as_slice() else {
-        panic!("one step expected: {}", fmt_steps(&out));
-    };
+    let out = diagnosed_in_one_step(&c);
+    let step = &out.steps[0];
     assert!(names(step, Effect::GravityTorque), "{}", fmt_steps(&out));
     let g = if step.effect == Effect::GravityTorque {
         step.value
@@ -678,12 +684,8 @@ fn gravity_that_the_records_cannot_tell_from_a_spring_is_reported_beside_it() {
 #[test]
 fn an_implausible_tachometer_gain_gives_way_to_the_friction_that_is_there() {
     let c = foreign::case(Kind::Single(Effect::MotorViscous), 6).unwrap();
-    let out = c.diagnose(&Options::default()).unwrap();
-    eprintln!("{}: {}", c.label(), fmt_steps(&out));
-    assert!(!out.unexplained);
-    let [step] = out.steps.as_slice() else {
-        panic!("one step expected: {}", fmt_steps(&out));
-    };
+    let out = diagnosed_in_one_step(&c);
+    let step = &out.steps[0];
     assert_eq!(step.effect, Effect::MotorViscous);
     let (_, v) = c.expected[0];
     let want = c.expected_fitted(Effect::MotorViscous, v);
@@ -726,12 +728,8 @@ fn an_implausible_tachometer_gain_gives_way_to_the_friction_that_is_there() {
 #[test]
 fn a_slow_tachometer_and_a_motor_friction_are_reported_together() {
     let c = foreign::case(Kind::Single(Effect::TachGain), 28).unwrap();
-    let out = c.diagnose(&Options::default()).unwrap();
-    eprintln!("{}: {}", c.label(), fmt_steps(&out));
-    assert!(!out.unexplained, "{}", fmt_steps(&out));
-    let [step] = out.steps.as_slice() else {
-        panic!("one step expected: {}", fmt_steps(&out));
-    };
+    let out = diagnosed_in_one_step(&c);
+    let step = &out.steps[0];
     let value_of = |e: Effect| {
         if step.effect == e {
             Some(step.value)
