@@ -2,7 +2,7 @@
 //! residual, the best refitted with the default set — locally, from a kin's refit, and
 //! globally when the fit is poor.
 
-use super::kin::{kin, mirror, rescales};
+use super::kin::{deadband_from_friction, kin, mirror, rescales};
 use super::Ctx;
 use crate::calibrate::{self, Data, Fit, Knob, Point};
 use geared_servo::{ActuatorParams, Effect};
@@ -98,9 +98,19 @@ pub(super) fn local_refits(
             // and without the background damping, for the mesh damping) make the same
             // tries: the refit is run once for them.
             let mut done: Vec<(Vec<ActuatorParams>, ActuatorParams)> = Vec::new();
-            for start in starts {
+            // The dead band also starts from the motor friction a model without it took on
+            // ([`deadband_from_friction`]), its value as it is there.
+            let extra = (effect == Effect::DriveDeadband)
+                .then(|| deadband_from_friction(&cur.params, &cx.nominal, k))
+                .flatten();
+            let all = starts
+                .iter()
+                .map(|s| (*s, true))
+                .chain(extra.map(|s| (s, false)));
+            for (start, projected) in all {
+                let start = &start;
                 let mut p = *start;
-                if v != 0.0 {
+                if projected && v != 0.0 {
                     calibrate::set(&mut p, k.param, v);
                 }
                 // The start as it is competes only when the effect is on there.
