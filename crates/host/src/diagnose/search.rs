@@ -108,14 +108,13 @@ pub(super) fn local_refits(
                 .map(|s| (*s, true))
                 .chain(extra.map(|s| (s, false)));
             for (start, projected) in all {
-                let start = &start;
-                let mut p = *start;
+                let mut p = start;
                 if projected && v != 0.0 {
                     calibrate::set(&mut p, k.param, v);
                 }
                 // The start as it is competes only when the effect is on there.
                 let own = (calibrate::get(&p, k.param) != 0.0).then_some(p);
-                let grid = with_values(start, k, grid(start, effect, k, cx.max_v));
+                let grid = with_values(&start, k, grid(&start, effect, k, cx.max_v));
                 let tries: Vec<ActuatorParams> = own.into_iter().chain(grid).collect();
                 if done.iter().any(|(t, q)| *t == tries && *q == p) {
                     continue;
