@@ -158,6 +158,10 @@ fn main() {
             structural(&c);
             continue;
         }
+        if std::env::var("FILEGRID").is_ok() {
+            file_grid(&c);
+            continue;
+        }
         if std::env::var("BASE_ONLY").is_ok() {
             base_only(&c);
             continue;
@@ -355,6 +359,59 @@ fn main() {
             "  polish from truth on truth weights: {:.4} [{}]",
             ft.cost.sqrt(),
             fmt(&te, &ft.params)
+        );
+    }
+}
+
+/// Each candidate effect alone at the file's values (with the background damping): the
+/// best of its grid over the file's cost on the file's smooth rows (robust loss).
+pub fn file_grid(c: &foreign::ForeignCase) {
+    use geared_servo::Effect;
+    for (name, d) in [("est", &c.estimation), ("val", &c.validation)] {
+        let mut file = calibrate::with_measured_stiffness(&c.file).unwrap();
+        file.sample_period_s = d.sample_period_s;
+        let mv = d.max_abs_v();
+        let start = calibrate::with_background_damping(&file, mv).unwrap();
+        let w = calibrate::robust(&[predictability::weigh_smooth(&start, d).0]);
+        let c0 = calibrate::cost(&start, &w);
+        let mut out: Vec<(f64, Effect, f64)> = Options::default()
+            .candidates
+            .iter()
+            .map(|&e| {
+                let k = calibrate::knob(&start, Param::Effect(e), mv);
+                let g = calibrate::effect_grid(&start, e, &k, mv).unwrap_or_else(|| {
+                    let s = calibrate::effect_scale(&start, e, mv);
+                    let f: Vec<f64> = match e {
+                        Effect::InputDelay => vec![0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0],
+                        Effect::VoltageLimit => vec![0.3, 0.45, 0.6, 0.7, 0.8, 0.9, 0.95],
+                        Effect::TachGain => {
+                            return vec![-0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3]
+                        }
+                        _ => vec![1e-3, 3e-3, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0],
+                    };
+                    f.iter().map(|x| (x * s).clamp(k.lo, k.hi)).collect()
+                });
+                g.iter()
+                    .map(|&v| {
+                        let mut q = start;
+                        calibrate::set(&mut q, Param::Effect(e), v);
+                        (calibrate::cost(&q, &w) / c0, e, v)
+                    })
+                    .fold(
+                        (f64::INFINITY, e, 0.0),
+                        |b, x| if x.0 < b.0 { x } else { b },
+                    )
+            })
+            .collect();
+        out.sort_by(|a, b| a.0.total_cmp(&b.0));
+        println!(
+            "FILEGRID {} {name}: {}",
+            c.label(),
+            out.iter()
+                .take(5)
+                .map(|(r, e, v)| format!("{e} {r:.3}@{v:.3e}"))
+                .collect::<Vec<_>>()
+                .join(", ")
         );
     }
 }

@@ -756,7 +756,7 @@ fn diagnose_records(
             ))?;
             search::kin_starts(&cx, &cur, &mut local, &rows);
             cx.trace(format_args!("{pass}, round {rounds}: kin starts"))?;
-            let mut alts = search::structural_refits(&cx, &local, cur_poor, &from_file);
+            let mut alts = search::structural_refits(&cx, &local, cur_poor, &from_file, &rows);
             cx.trace(format_args!(
                 "{pass}, round {rounds}: {} global settles",
                 alts.iter().map(Vec::len).sum::<usize>()
