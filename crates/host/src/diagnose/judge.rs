@@ -650,6 +650,14 @@ pub(super) fn accept(
             }
             _ => true,
         };
+        log::debug!(
+            "  class member {} = {:.4e}: held-out segments {:.4} without, {:.4} with; validation {}",
+            j.effect,
+            j.value,
+            ho.0,
+            ho.1,
+            if val_ok { "not worse" } else { "worse" }
+        );
         if ho_ok && val_ok {
             holding.push((i, ho, jw));
             continue;
