@@ -111,6 +111,18 @@ fn held_out(without: &Fit, with: &Fit, data: &[Data]) -> (f64, f64) {
             with.params
         };
         y += calibrate::cost(&p, test);
+        if let Some(k) = effect.first() {
+            log::debug!(
+                "    fold: {} {:.4e} refitted to {:.4e}; train {:.4e} -> {:.4e}, test {:.4e} (without {:.4e})",
+                k.name(),
+                calibrate::get(&with.params, k.param),
+                calibrate::get(&p, k.param),
+                calibrate::cost(&with.params, train),
+                calibrate::cost(&p, train),
+                calibrate::cost(&p, test),
+                calibrate::cost(&without.params, test)
+            );
+        }
     }
     (rms_nrmse(x / 2.0), rms_nrmse(y / 2.0))
 }
