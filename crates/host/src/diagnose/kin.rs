@@ -256,7 +256,7 @@ pub fn deadband_from_friction(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::calibrate::tests::data_of;
     use crate::calibrate::{nrmse, Data};
@@ -267,7 +267,7 @@ mod tests {
     /// The reference actuator with a mesh damping that keeps its gears from rattling (with
     /// rattle no two models follow each other sample by sample: MODEL.md) and `effect` at
     /// `value`, stiffness in measured form, at 2 kHz.
-    fn unit(effect: Effect, value: f64) -> ActuatorParams {
+    pub(crate) fn unit(effect: Effect, value: f64) -> ActuatorParams {
         let mut p = calibrate::with_measured_stiffness(&REFERENCE.with_backlash_deg(0.05)).unwrap();
         p.sample_period_s = H;
         p.effects.set(Effect::MeshDamping, 0.1);
@@ -277,7 +277,7 @@ mod tests {
 
     /// 2 s of a ±9 V square wave at 2 Hz with a 2 V multisine (7–230 Hz) on it, as the
     /// tachometer record of `p`.
-    fn record(p: &ActuatorParams) -> Data {
+    pub(crate) fn record(p: &ActuatorParams) -> Data {
         let volts = (0..4000)
             .map(|k| {
                 let t = k as f64 * H;

@@ -474,42 +474,16 @@ pub(super) fn score(
 
 #[cfg(test)]
 mod tests {
+    use super::super::kin::tests::{record as square_record, unit};
     use super::*;
-    use crate::calibrate::tests::data_of;
     use crate::calibrate::Param;
     use crate::diagnose::Options;
-    use geared_servo::REFERENCE;
 
-    const H: f64 = 5e-4;
-
-    /// The reference actuator (gears kept from rattling by a mesh damping) with `effect` at
-    /// `value`, stiffness in measured form, at 2 kHz.
-    fn unit(effect: Effect, value: f64) -> ActuatorParams {
-        let mut p = calibrate::with_measured_stiffness(&REFERENCE.with_backlash_deg(0.05)).unwrap();
-        p.sample_period_s = H;
-        p.effects.set(Effect::MeshDamping, 0.1);
-        p.effects.set(effect, value);
-        p
-    }
-
-    /// 2 s of a ±9 V square wave at 2 Hz with a 2 V multisine on it, as `p`'s tachometer
-    /// record on the robust window loss.
+    /// [`square_record`] on the robust window loss, at a noise level of 1 % of its RMS.
     fn record(p: &ActuatorParams) -> Vec<Data> {
-        let volts = (0..4000)
-            .map(|k| {
-                let t = k as f64 * H;
-                let sq = if (k / 500) % 2 == 0 { 9.0 } else { -9.0 };
-                let ms: f64 = [7.0, 31.0, 83.0, 230.0]
-                    .iter()
-                    .enumerate()
-                    .map(|(i, f)| 0.5 * (std::f64::consts::TAU * f * t + i as f64).sin())
-                    .sum();
-                sq + ms
-            })
-            .collect();
-        let d = data_of(volts, H, Some(p));
+        let d = square_record(p);
         let sigma = 0.01 * d.norm / (d.y.len() as f64).sqrt();
-        vec![d.with_robust(Some(calibrate::Robust::new(sigma, H)))]
+        vec![d.with_robust(Some(calibrate::Robust::new(sigma, d.sample_period_s)))]
     }
 
     #[test]
