@@ -46,9 +46,17 @@ fn polish_twice(p: &ActuatorParams, knobs: &[Knob], rows: &Rows) -> Point {
 
 /// The cheapest of `tries` on `data` (the first of equal costs), the costs in parallel.
 fn cheapest(tries: Vec<ActuatorParams>, data: &[Data]) -> Option<(f64, ActuatorParams)> {
-    let costed: Vec<(f64, ActuatorParams)> = tries
+    cheapest_tagged(tries.into_iter().map(|q| ((), q)).collect(), data).map(|(c, _, q)| (c, q))
+}
+
+/// [`cheapest`] of tries that each carry a tag (what was tried), returned with the winner.
+fn cheapest_tagged<T: Send>(
+    tries: Vec<(T, ActuatorParams)>,
+    data: &[Data],
+) -> Option<(f64, T, ActuatorParams)> {
+    let costed: Vec<(f64, T, ActuatorParams)> = tries
         .into_par_iter()
-        .map(|q| (calibrate::cost(&q, data), q))
+        .map(|(t, q)| (calibrate::cost(&q, data), t, q))
         .collect();
     let mut it = costed.into_iter();
     let first = it.next()?;
@@ -362,29 +370,18 @@ pub(super) fn file_side_best(
     max_v: f64,
 ) -> Option<(usize, f64, f64)> {
     let c0 = calibrate::cost(start, rows);
-    let tries: Vec<(usize, f64, ActuatorParams)> = cands
+    let tries: Vec<((usize, f64), ActuatorParams)> = cands
         .iter()
         .enumerate()
         .flat_map(|(i, &(effect, k))| {
-            grid(start, effect, k, max_v).into_iter().map(move |v| {
-                let mut q = *start;
-                calibrate::set(&mut q, k.param, v);
-                (i, v, q)
-            })
+            let values = grid(start, effect, k, max_v);
+            let points = with_values(start, k, values.clone());
+            values.into_iter().map(move |v| (i, v)).zip(points)
         })
         .collect();
-    let costed: Vec<(f64, usize, f64)> = tries
-        .into_par_iter()
-        .map(|(i, v, q)| (calibrate::cost(&q, rows), i, v))
-        .collect();
     // The first of equal costs, in the order of `cands`.
-    let best = costed
-        .into_iter()
-        .fold(None, |b: Option<(f64, usize, f64)>, x| match b {
-            Some(b) if b.0 <= x.0 => Some(b),
-            _ => Some(x),
-        })?;
-    (best.0 < c0).then_some((best.1, best.2, best.0 / c0))
+    let (c, (i, v), _) = cheapest_tagged(tries, rows)?;
+    (c < c0).then_some((i, v, c / c0))
 }
 
 /// Grid of values tried for `effect` (whose knob is `k`) in the one-dimensional score.
