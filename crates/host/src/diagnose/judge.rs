@@ -5,7 +5,7 @@
 
 use super::kin;
 use super::search::Refit;
-use super::settle::{common_rows, floor_cost, floor_cost_sd, polish_on_own_rows};
+use super::settle::{better_on_common, common_rows, floor_cost, floor_cost_sd, polish_on_own_rows};
 use super::{rms_nrmse, Ctx, Options, Rejection, Step};
 use crate::calibrate::{self, Data, Fit, Knob, Param, Point};
 use crate::noise;
@@ -988,6 +988,7 @@ pub(super) fn swap_in_class(
     cur: &Fit,
     wdata: &[Data],
     steps: &[Step],
+    when: &str,
 ) -> (Option<Swap>, Vec<(usize, Effect, f64)>) {
     let opts = cx.opts;
     let mut rejoin = Vec::new();
@@ -1030,41 +1031,19 @@ pub(super) fn swap_in_class(
             if plausible && ev.earns(opts.bic_threshold) && !ev.immaterial && own_c <= cur.cost {
                 let mut fit = fit;
                 fit.cost = own_c;
-                // The member's own evidence, as its step reports it: against the model
-                // without it (nor the effect it replaces).
-                let (without, _, common_w) = refit_replacing(cx, &fit, &own, other, None);
-                let Compared {
-                    ev: ev_w,
-                    with_c: with_w,
-                    without_c: without_w,
-                    ..
-                } = evidence_on(cx, &fit.params, &without.params, &common_w);
-                let held_out = held_out(&without, &fit, &common_w);
-                return (
-                    Some(Swap {
-                    nrmse_before: rms_nrmse(without_w),
-                    nrmse_after: rms_nrmse(with_w),
-                    delta_bic: ev_w.delta_bic,
-                    held_out,
-                    step: si,
+                let sw = swap_of(
+                    cx,
+                    cur,
+                    si,
+                    st.effect,
+                    other,
                     fit,
                     own,
-                    effect: other,
-                    replaced: Rejection {
-                        effect: st.effect,
-                        value: cur.params.effects.get(st.effect),
-                        nrmse_after: rms_nrmse(cur.cost),
-                        reason: format!(
-                            "replaced by {other} once the validation record was fitted too: NRMSE {:.4} with it, {:.4} with {other} on the rows both keep (ΔBIC {:.1}, {:.0} % of the error above the noise floor)",
-                            rms_nrmse(without_c),
-                            rms_nrmse(with_c),
-                            ev.delta_bic,
-                            100.0 * ev.share
-                        ),
-                    },
-                    }),
-                    rejoin,
+                    &ev,
+                    (without_c, with_c),
+                    when,
                 );
+                return (Some(sw), rejoin);
             }
             if was_told_apart && plausible {
                 // The records, fitted together, tell them apart the other way?
@@ -1076,6 +1055,140 @@ pub(super) fn swap_in_class(
         }
     }
     (None, rejoin)
+}
+
+/// The swap of step `si`'s effect `effect` for `other`, whose model `fit` (plain cost on its
+/// own rows `own`) beat `cur` by `ev` on the rows both keep (`costs`: without, with), with
+/// the member's own evidence as its step reports it: against the model without it (nor the
+/// effect it replaces).
+#[allow(clippy::too_many_arguments)]
+fn swap_of(
+    cx: &Ctx,
+    cur: &Fit,
+    si: usize,
+    effect: Effect,
+    other: Effect,
+    fit: Fit,
+    own: Vec<Data>,
+    ev: &Evidence,
+    costs: (f64, f64),
+    when: &str,
+) -> Swap {
+    let (without_c, with_c) = costs;
+    let (without, _, common_w) = refit_replacing(cx, &fit, &own, other, None);
+    let Compared {
+        ev: ev_w,
+        with_c: with_w,
+        without_c: without_w,
+        ..
+    } = evidence_on(cx, &fit.params, &without.params, &common_w);
+    let held_out = held_out(&without, &fit, &common_w);
+    Swap {
+        nrmse_before: rms_nrmse(without_w),
+        nrmse_after: rms_nrmse(with_w),
+        delta_bic: ev_w.delta_bic,
+        held_out,
+        step: si,
+        fit,
+        own,
+        effect: other,
+        replaced: Rejection {
+            effect,
+            value: cur.params.effects.get(effect),
+            nrmse_after: rms_nrmse(cur.cost),
+            reason: format!(
+                "replaced by {other} {when}: NRMSE {:.4} with it, {:.4} with {other} on the rows both keep (ΔBIC {:.1}, {:.0} % of the error above the noise floor)",
+                rms_nrmse(without_c),
+                rms_nrmse(with_c),
+                ev.delta_bic,
+                100.0 * ev.share
+            ),
+        },
+    }
+}
+
+/// A step taken as a stand-in: `refit`, a refit of the step's class member `other` that
+/// needs the step's effect at its bound (and so was refused), with that effect set back to
+/// the file's value and its knob dropped, polished on its own rows, replaces the step's
+/// effect when it beats `cur` on the rows both keep by the BIC threshold and a material
+/// share of the error above the floor, follows its own rows no worse than `cur` follows
+/// its own, and lands inside its plausible range. A polish from `cur` with the member at
+/// its class value ([`swap_in_class`]) starts in the basin the stand-in bent.
+///
+/// "No worse on its own rows" is read by the robust window loss ([`Ctx::robust_ratio`]),
+/// not by the plain cost: the swapped model is new to those rows, and its predictability
+/// assessment (copies moved by 10⁻³ around it) can keep a burst where the unit sits on
+/// another response. voltage_limit/59 of the foreign suite: the limit's refit (7.249 V for
+/// the unit's 7.256 V) follows the estimation record at the noise level on every burst it
+/// keeps but one, half of the 185 Hz burst, which the truth's own assessment weights out
+/// and where the refit misses by 3500 times the noise energy; on the plain cost that half
+/// burst alone reads 0.43 against the current model's 0.074 (which keeps 12.8 % of the
+/// record, the refit 19.6 %), on the robust loss 1.29 against 1.68 times the noise.
+pub(super) fn swap_stand_in(
+    cx: &Ctx,
+    cur: &Fit,
+    wdata: &[Data],
+    steps: &[Step],
+    si: usize,
+    refit: &Fit,
+    other: Effect,
+) -> Option<Swap> {
+    let st = steps.get(si)?;
+    let param = Param::Effect(st.effect);
+    let mut q = refit.params;
+    calibrate::set(&mut q, param, calibrate::get(&cx.nominal, param));
+    let knobs: Vec<Knob> = refit
+        .knobs
+        .iter()
+        .filter(|k| k.param != param)
+        .cloned()
+        .collect();
+    // Polished where it stands, and settled from there (the rows it follows move with it),
+    // the better on the rows both keep.
+    let (fit, own, _) = better_on_common(
+        polish_on_own_rows(&q, &knobs, cx.data, cx.opts.predictability, 20),
+        cx.settle(&q, &knobs, false),
+        cx.data,
+    );
+    let common = common_rows(cx.data, wdata, &own);
+    let Compared {
+        ev,
+        with_c,
+        without_c,
+        ..
+    } = evidence_on(cx, &fit.params, &cur.params, &common);
+    let plausible = implausibility(
+        other,
+        calibrate::get(&fit.params, Param::Effect(other)),
+        cx.opts.plausibility_slack,
+    ) <= 0.0;
+    let (own_r, cur_r) = (
+        cx.robust_ratio(&fit.params, &own),
+        cx.robust_ratio(&cur.params, wdata),
+    );
+    log::debug!(
+        "  {other} (its refused refit) in place of {}: NRMSE {:.4} against {:.4} on the rows both keep (ΔBIC {:.1}), {:.4} on its own rows against {:.4} (robust ratio {own_r:.3} against {cur_r:.3}), plausible {plausible}",
+        st.effect,
+        rms_nrmse(with_c),
+        rms_nrmse(without_c),
+        ev.delta_bic,
+        rms_nrmse(fit.cost),
+        rms_nrmse(cur.cost)
+    );
+    (plausible && ev.earns(cx.opts.bic_threshold) && !ev.immaterial && own_r <= cur_r).then(|| {
+        swap_of(
+            cx,
+            cur,
+            si,
+            st.effect,
+            other,
+            fit,
+            own,
+            &ev,
+            (without_c, with_c),
+            "once its later refit needed the step's effect at a bound",
+        )
+    })
 }
 
 /// `cur` with `effect` set back to the file's value and its knob dropped — and `instead`
