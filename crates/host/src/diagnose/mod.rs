@@ -1567,4 +1567,107 @@ mod tests {
         let (sw, rejoin) = review(Effect::HingeStiffness, true);
         assert!(sw.is_none() && rejoin.is_empty(), "{rejoin:?}");
     }
+
+    /// [`judge::swap_stand_in`]: a motor viscous friction taken in place of a voltage limit
+    /// (a saturated drive reads as speed-proportional loss) gives way to the limit's refit;
+    /// a friction that is there does not give way to a limit that is not. (The rule, on
+    /// emulator records; voltage_limit/59 of the foreign suite tests it on records the
+    /// emulator did not make.)
+    #[test]
+    fn a_stand_in_friction_gives_way_to_the_limit_it_stood_in_for() {
+        let h = 5e-4;
+        let mut file = REFERENCE;
+        file.sample_period_s = h;
+        let mut unit = calibrate::with_measured_stiffness(&file).unwrap();
+        for (param, factor) in [
+            (Param::LoadInertia, 1.1),
+            (Param::StiffnessKeq, 0.92),
+            (Param::MotorFriction, 0.85),
+            (Param::LoadFriction, 1.2),
+        ] {
+            let v = factor * calibrate::get(&unit, param);
+            calibrate::set(&mut unit, param, v);
+        }
+        // 3 s of the validation procedure: a 9 V, 2 Hz square wave and a 2 V multisine.
+        let volts: Vec<f64> = (0..6000)
+            .map(|k| {
+                let t = k as f64 * h;
+                let sq = if (t * 2.0).fract() < 0.5 { 9.0 } else { -9.0 };
+                sq + [3.0, 11.0, 37.0]
+                    .iter()
+                    .map(|f| 2.0 / 3.0 * (std::f64::consts::TAU * f * t).sin())
+                    .sum::<f64>()
+            })
+            .collect();
+        let (limit, friction) = (7.0, 3e-6);
+        let stand_in = |hidden: Effect| {
+            let mut truth = unit;
+            truth.effects.set(
+                hidden,
+                if hidden == Effect::VoltageLimit {
+                    limit
+                } else {
+                    friction
+                },
+            );
+            let clean = data_of(volts.clone(), h, Some(&truth));
+            let rms = (clean.y.iter().map(|v| v * v).sum::<f64>() / clean.y.len() as f64).sqrt();
+            let mut d = clean.clone();
+            d.y = clean
+                .y
+                .iter()
+                .zip(noise(clean.y.len(), 0.02 * rms))
+                .map(|(v, e)| v + e)
+                .collect();
+            let data = std::slice::from_ref(&d);
+            let opts = Options::default();
+            let cx = Ctx::new(&file, data, None, &opts, &()).unwrap();
+            let knob = |e: Effect| calibrate::knob(&cx.nominal, Param::Effect(e), cx.max_v);
+            // The model with the friction the first records suggested, polished here.
+            let mut q = cx.nominal;
+            q.effects.set(Effect::MotorViscous, friction);
+            let mut ks = calibrate::default_knobs(&cx.nominal, cx.max_v);
+            ks.push(knob(Effect::MotorViscous));
+            let cur = calibrate::polish(&q, &ks, &cx.weigh(&q), 8);
+            let wdata = cx.weigh(&cur.params);
+            // The limit's later refit, beside the friction.
+            let mut q = cur.params;
+            q.effects.set(Effect::VoltageLimit, limit);
+            ks.push(knob(Effect::VoltageLimit));
+            let refit = calibrate::polish(&q, &ks, &cx.weigh(&q), 8);
+            let step = Step {
+                effect: Effect::MotorViscous,
+                value: cur.params.effects.get(Effect::MotorViscous),
+                std_error: f64::NAN,
+                nrmse_before: f64::NAN,
+                nrmse_after: f64::NAN,
+                delta_bic: f64::NAN,
+                scores: Vec::new(),
+                partial: false,
+                indistinguishable_from: vec![(Effect::VoltageLimit, limit)],
+                separate_by: String::new(),
+                held_out: (f64::NAN, f64::NAN),
+                told_apart: Vec::new(),
+            };
+            judge::swap_stand_in(
+                &cx,
+                &cur,
+                &wdata,
+                std::slice::from_ref(&step),
+                0,
+                &refit,
+                Effect::VoltageLimit,
+            )
+        };
+        let sw = stand_in(Effect::VoltageLimit).expect("the limit replaces the friction");
+        assert_eq!(sw.effect, Effect::VoltageLimit);
+        assert_eq!(sw.fit.params.effects.motor_viscous, 0.0);
+        let v = sw.fit.params.effects.voltage_limit;
+        assert!((v / limit - 1.0).abs() < 0.05, "limit {v} for {limit}");
+        assert_eq!(sw.replaced.effect, Effect::MotorViscous);
+        assert!(
+            stand_in(Effect::MotorViscous).is_none(),
+            "the friction that is there stays"
+        );
+    }
 }
