@@ -122,6 +122,10 @@ fn main() {
             pickup(&c);
             continue;
         }
+        if std::env::var("TGAIN").is_ok() {
+            tgain(&c);
+            continue;
+        }
         if std::env::var("KEPT").is_ok() {
             kept_bursts(&c);
             continue;
@@ -1612,4 +1616,39 @@ fn nll(y: &[f64], m: &[f64], w: &[f64], sigma: f64) -> (f64, String) {
         total, pred, np, unpred, logv
     );
     (total, line)
+}
+
+/// The truth (model form) on its own rows of both records, polished with its effects, then
+/// with a tachometer gain as well: what a gain does at the truth.
+pub fn tgain(c: &foreign::ForeignCase) {
+    let t = eq_truth(c);
+    let mv = c.estimation.max_abs_v().max(c.validation.max_abs_v());
+    let we = predictability::weigh(&t, &c.estimation).0;
+    let wv = predictability::weigh(&t, &c.validation).0;
+    let both = [we, wv];
+    let mut file = calibrate::with_measured_stiffness(&c.file).unwrap();
+    file.sample_period_s = t.sample_period_s;
+    let mut knobs = calibrate::default_knobs(&file, mv);
+    knobs.push(calibrate::background_damping_knob(&file, mv));
+    for (e, _) in &c.expected {
+        knobs.push(calibrate::knob(&file, Param::Effect(*e), mv));
+    }
+    let a = calibrate::polish(&t, &knobs, &both, 20);
+    knobs.push(calibrate::knob(
+        &file,
+        Param::Effect(geared_servo::Effect::TachGain),
+        mv,
+    ));
+    let b = calibrate::polish(&t, &knobs, &both, 20);
+    let n = |p: &ActuatorParams| [calibrate::nrmse(p, &both[0]), calibrate::nrmse(p, &both[1])];
+    println!(
+        "TGAIN {}: truth {:?}, polished {:?}, with a gain {:?} (gain {:.4e}); floors {:.4} {:.4}",
+        c.label(),
+        n(&t),
+        n(&a.params),
+        n(&b.params),
+        b.params.effects.tach_gain,
+        c.estimation_floor,
+        c.validation_floor
+    );
 }
