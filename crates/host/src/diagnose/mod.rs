@@ -1333,6 +1333,50 @@ mod tests {
         assert!(s > 0.28 && s < 0.29, "{s}");
     }
 
+    /// A unit that differs from `file` as real units do (load inertia +12 %, stiffness
+    /// −10 %, motor friction −15 %, load friction +20 %), the stiffness as measured.
+    fn perturbed_unit(file: &ActuatorParams) -> ActuatorParams {
+        let mut unit = calibrate::with_measured_stiffness(file).unwrap();
+        for (param, factor) in [
+            (Param::LoadInertia, 1.12),
+            (Param::StiffnessKeq, 0.9),
+            (Param::MotorFriction, 0.85),
+            (Param::LoadFriction, 1.2),
+        ] {
+            let v = factor * calibrate::get(&unit, param);
+            calibrate::set(&mut unit, param, v);
+        }
+        unit
+    }
+
+    /// 3 s of the validation procedure at step `h`, V: a 9 V, 2 Hz square wave and a 2 V
+    /// multisine (3, 11, 37 Hz).
+    fn square_and_multisine(h: f64) -> Vec<f64> {
+        (0..(3.0 / h).round() as usize)
+            .map(|k| {
+                let t = k as f64 * h;
+                let sq = if (t * 2.0).fract() < 0.5 { 9.0 } else { -9.0 };
+                sq + [3.0, 11.0, 37.0]
+                    .iter()
+                    .map(|f| 2.0 / 3.0 * (std::f64::consts::TAU * f * t).sin())
+                    .sum::<f64>()
+            })
+            .collect()
+    }
+
+    /// `clean` with Gaussian noise of 2 % of its RMS added.
+    fn noisy(clean: Data) -> Data {
+        let rms = (clean.y.iter().map(|v| v * v).sum::<f64>() / clean.y.len() as f64).sqrt();
+        let mut d = clean.clone();
+        d.y = clean
+            .y
+            .iter()
+            .zip(noise(clean.y.len(), 0.02 * rms))
+            .map(|(v, e)| v + e)
+            .collect();
+        d
+    }
+
     /// Gaussian noise of standard deviation `s`, deterministic (xorshift, Box–Muller).
     fn noise(n: usize, s: f64) -> Vec<f64> {
         let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
@@ -1441,41 +1485,15 @@ mod tests {
         let h = 5e-4;
         let mut file = REFERENCE;
         file.sample_period_s = h;
-        let mut unit = calibrate::with_measured_stiffness(&file).unwrap();
-        for (param, factor) in [
-            (Param::LoadInertia, 1.12),
-            (Param::StiffnessKeq, 0.9),
-            (Param::MotorFriction, 0.85),
-            (Param::LoadFriction, 1.2),
-        ] {
-            let v = factor * calibrate::get(&unit, param);
-            calibrate::set(&mut unit, param, v);
-        }
-        let volts: Vec<f64> = (0..6000)
-            .map(|k| {
-                let t = k as f64 * h;
-                let sq = if (t * 2.0).fract() < 0.5 { 9.0 } else { -9.0 };
-                sq + [3.0, 11.0, 37.0]
-                    .iter()
-                    .map(|f| 2.0 / 3.0 * (std::f64::consts::TAU * f * t).sin())
-                    .sum::<f64>()
-            })
-            .collect();
+        let unit = perturbed_unit(&file);
+        let volts = square_and_multisine(h);
         let g = 0.09;
         // `told`: gravity comes as a member the first pass told apart, not as one of the
         // class. Returns the swap, if any, and the members that rejoin the class.
         let review = |hidden: Effect, told: bool| {
             let mut truth = unit;
             truth.effects.set(hidden, g);
-            let clean = data_of(volts.clone(), h, Some(&truth));
-            let rms = (clean.y.iter().map(|v| v * v).sum::<f64>() / clean.y.len() as f64).sqrt();
-            let mut d = clean.clone();
-            d.y = clean
-                .y
-                .iter()
-                .zip(noise(clean.y.len(), 0.02 * rms))
-                .map(|(v, e)| v + e)
-                .collect();
+            let d = noisy(data_of(volts.clone(), h, Some(&truth)));
             let data = std::slice::from_ref(&d);
             let opts = Options::default();
             let cx = Ctx::new(&file, data, None, &opts, &()).unwrap();
@@ -1578,27 +1596,8 @@ mod tests {
         let h = 5e-4;
         let mut file = REFERENCE;
         file.sample_period_s = h;
-        let mut unit = calibrate::with_measured_stiffness(&file).unwrap();
-        for (param, factor) in [
-            (Param::LoadInertia, 1.1),
-            (Param::StiffnessKeq, 0.92),
-            (Param::MotorFriction, 0.85),
-            (Param::LoadFriction, 1.2),
-        ] {
-            let v = factor * calibrate::get(&unit, param);
-            calibrate::set(&mut unit, param, v);
-        }
-        // 3 s of the validation procedure: a 9 V, 2 Hz square wave and a 2 V multisine.
-        let volts: Vec<f64> = (0..6000)
-            .map(|k| {
-                let t = k as f64 * h;
-                let sq = if (t * 2.0).fract() < 0.5 { 9.0 } else { -9.0 };
-                sq + [3.0, 11.0, 37.0]
-                    .iter()
-                    .map(|f| 2.0 / 3.0 * (std::f64::consts::TAU * f * t).sin())
-                    .sum::<f64>()
-            })
-            .collect();
+        let unit = perturbed_unit(&file);
+        let volts = square_and_multisine(h);
         let (limit, friction) = (7.0, 3e-6);
         let stand_in = |hidden: Effect| {
             let mut truth = unit;
@@ -1610,15 +1609,7 @@ mod tests {
                     friction
                 },
             );
-            let clean = data_of(volts.clone(), h, Some(&truth));
-            let rms = (clean.y.iter().map(|v| v * v).sum::<f64>() / clean.y.len() as f64).sqrt();
-            let mut d = clean.clone();
-            d.y = clean
-                .y
-                .iter()
-                .zip(noise(clean.y.len(), 0.02 * rms))
-                .map(|(v, e)| v + e)
-                .collect();
+            let d = noisy(data_of(volts.clone(), h, Some(&truth)));
             let data = std::slice::from_ref(&d);
             let opts = Options::default();
             let cx = Ctx::new(&file, data, None, &opts, &()).unwrap();
