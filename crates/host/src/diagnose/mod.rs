@@ -1333,6 +1333,24 @@ mod tests {
         assert!(s > 0.28 && s < 0.29, "{s}");
     }
 
+    /// A step that added `effect` at `value`, with neither class nor numbers.
+    fn bare_step(effect: Effect, value: f64) -> Step {
+        Step {
+            effect,
+            value,
+            std_error: f64::NAN,
+            nrmse_before: f64::NAN,
+            nrmse_after: f64::NAN,
+            delta_bic: f64::NAN,
+            scores: Vec::new(),
+            partial: false,
+            indistinguishable_from: Vec::new(),
+            separate_by: String::new(),
+            held_out: (f64::NAN, f64::NAN),
+            told_apart: Vec::new(),
+        }
+    }
+
     /// A unit that differs from `file` as real units do (load inertia +12 %, stiffness
     /// −10 %, motor friction −15 %, load friction +20 %), the stiffness as measured.
     fn perturbed_unit(file: &ActuatorParams) -> ActuatorParams {
@@ -1510,21 +1528,11 @@ mod tests {
             let cur = calibrate::polish(&q, &ks, &wdata, 8);
             let wdata = cx.weigh(&cur.params);
             let step = Step {
-                effect: Effect::HingeStiffness,
-                value: cur.params.effects.get(Effect::HingeStiffness),
-                std_error: f64::NAN,
-                nrmse_before: f64::NAN,
-                nrmse_after: f64::NAN,
-                delta_bic: f64::NAN,
-                scores: Vec::new(),
-                partial: false,
                 indistinguishable_from: if told {
                     Vec::new()
                 } else {
                     vec![(Effect::GravityTorque, g)]
                 },
-                separate_by: String::new(),
-                held_out: (f64::NAN, f64::NAN),
                 told_apart: if told {
                     vec![Rejection {
                         effect: Effect::GravityTorque,
@@ -1535,6 +1543,10 @@ mod tests {
                 } else {
                     Vec::new()
                 },
+                ..bare_step(
+                    Effect::HingeStiffness,
+                    cur.params.effects.get(Effect::HingeStiffness),
+                )
             };
             judge::swap_in_class(
                 &cx,
@@ -1627,18 +1639,11 @@ mod tests {
             ks.push(knob(Effect::VoltageLimit));
             let refit = calibrate::polish(&q, &ks, &cx.weigh(&q), 8);
             let step = Step {
-                effect: Effect::MotorViscous,
-                value: cur.params.effects.get(Effect::MotorViscous),
-                std_error: f64::NAN,
-                nrmse_before: f64::NAN,
-                nrmse_after: f64::NAN,
-                delta_bic: f64::NAN,
-                scores: Vec::new(),
-                partial: false,
                 indistinguishable_from: vec![(Effect::VoltageLimit, limit)],
-                separate_by: String::new(),
-                held_out: (f64::NAN, f64::NAN),
-                told_apart: Vec::new(),
+                ..bare_step(
+                    Effect::MotorViscous,
+                    cur.params.effects.get(Effect::MotorViscous),
+                )
             };
             judge::swap_stand_in(
                 &cx,
