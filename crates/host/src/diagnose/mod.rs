@@ -794,7 +794,11 @@ fn diagnose_records(
                     log::debug!("  {}", j.summary());
                 }
             }
-            let class = judge::with_plausible_kin(&cx, &cur, &judged, judge::class(&judged, opts));
+            let class = judge::with_kin_on_best_rows(
+                &judged,
+                opts,
+                judge::with_plausible_kin(&cx, &cur, &judged, judge::class(&judged, opts)),
+            );
             let mut acc = judge::accept(&cx, &cur, &judged, &class, &mut rejected, true);
             if acc.is_none() {
                 for j in judged.iter().filter(|j| j.admissible.is_err()) {
@@ -1383,7 +1387,7 @@ mod tests {
     }
 
     /// `clean` with Gaussian noise of 2 % of its RMS added.
-    fn noisy(clean: Data) -> Data {
+    pub(super) fn noisy(clean: Data) -> Data {
         let rms = (clean.y.iter().map(|v| v * v).sum::<f64>() / clean.y.len() as f64).sqrt();
         let mut d = clean.clone();
         d.y = clean
