@@ -33,10 +33,13 @@
 //! the data cannot tell apart (within the BIC threshold) form one class, ordered by physical
 //! likelihood: a value inside the plausible range first, then the least change of the
 //! parameters already calibrated; when every member's value is implausible, a plausible kin
-//! that the validation record does not show worse joins it, first (`judge::with_plausible_kin`).
-//! The first of the class that also holds on held-out data —
+//! that the validation record does not show worse joins it, first (`judge::with_plausible_kin`);
+//! a kin of the best that explains the best's own rows as well joins it, last
+//! (`judge::with_kin_on_best_rows`). The first of the class that also holds on held-out data —
 //! cross-validated segments of the record and, when given, the validation record — is added,
 //! reported with the others of its class and the measurement that would separate them.
+//! After each step, each earlier step is tested again (the backward step); at the end of each
+//! pass every step, the last included (`judge::backward_review`).
 //! Every diagnosis ends with a fine search on the rows the model is reported on
 //! (`settle::fine_search`). `unexplained` is true when a material residual remains above
 //! the floor on the predictable rows, spread over the record, and no candidate explains it.
@@ -680,6 +683,7 @@ fn diagnose_records(
     let mut provisional: Option<Provisional> = None;
     let mut provisional_used = false;
     let mut stand_in_swapped = false;
+    let mut reviewed = false;
     // A provisional step refuted goes back out, with the reason.
     let mut taken_back: Option<Rejection> = None;
     // A backward step takes a step back out, so the steps alone do not bound the rounds
@@ -980,6 +984,29 @@ fn diagnose_records(
                 ) {
                     continue 'search;
                 }
+            }
+        }
+        // Once per pass, every step is tested again as the backward step tests the earlier
+        // ones, the last included, against the model it ended in ([`judge::backward_review`]);
+        // one that goes is reported with the reason, and the search goes on from the model
+        // without it when that leaves a material residual.
+        if !reviewed {
+            reviewed = true;
+            if let Some(r) = judge::backward_review(&cx, &cur, &wdata, &steps) {
+                let st = steps.remove(r.step);
+                rejected.push(Rejection {
+                    effect: st.effect,
+                    value: st.value,
+                    nrmse_after: rms_nrmse(r.without.cost),
+                    reason: r.why,
+                });
+                adopt(&mut cur, r.without);
+                wdata = r.own;
+                cx.trace(format_args!(
+                    "{pass}: {} removed in the review at the end",
+                    st.effect.name()
+                ))?;
+                continue 'search;
             }
         }
         break;
@@ -1338,7 +1365,7 @@ mod tests {
     }
 
     /// A step that added `effect` at `value`, with neither class nor numbers.
-    fn bare_step(effect: Effect, value: f64) -> Step {
+    pub(super) fn bare_step(effect: Effect, value: f64) -> Step {
         Step {
             effect,
             value,
