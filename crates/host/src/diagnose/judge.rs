@@ -630,13 +630,7 @@ pub(super) fn with_kin_on_best_rows(
     opts: &Options,
     mut class: Vec<usize>,
 ) -> Vec<usize> {
-    let Some(&best) = class.iter().min_by(|&&a, &&b| {
-        let ratio = |i: usize| judged.get(i).map_or(f64::INFINITY, |j| j.ratio);
-        ratio(a).total_cmp(&ratio(b))
-    }) else {
-        return class;
-    };
-    let Some(jb) = judged.get(best) else {
+    let Some((_, jb)) = best_member(judged, &class) else {
         return class;
     };
     // The reference cost on the best's rows (`judge`'s ratio is the fit's over it).
@@ -668,6 +662,14 @@ pub(super) fn with_kin_on_best_rows(
         .collect();
     class.extend(joining);
     class
+}
+
+/// The member of `class` (indices into `judged`) with the smallest cost ratio, with its index.
+fn best_member<'j>(judged: &'j [Judged], class: &[usize]) -> Option<(usize, &'j Judged)> {
+    class
+        .iter()
+        .filter_map(|&i| judged.get(i).map(|j| (i, j)))
+        .min_by(|a, b| a.1.ratio.total_cmp(&b.1.ratio))
 }
 
 /// The best admissible refit's cost ratio and its effective sample count (∞ and 2 when
@@ -717,13 +719,7 @@ pub(super) fn with_plausible_kin(
     if class.is_empty() || !class.iter().all(implausible) || cx.val_sigma.is_none() {
         return class;
     }
-    let Some(&best) = class.iter().min_by(|&&a, &&b| {
-        let ratio = |i: usize| judged.get(i).map_or(f64::INFINITY, |j| j.ratio);
-        ratio(a).total_cmp(&ratio(b))
-    }) else {
-        return class;
-    };
-    let Some(jb) = judged.get(best) else {
+    let Some((best, jb)) = best_member(judged, &class) else {
         return class;
     };
     let at = |i: usize| {

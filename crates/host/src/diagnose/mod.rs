@@ -948,15 +948,7 @@ fn diagnose_records(
                 chosen.effect.name()
             ))?;
             if let Some(r) = judge::backward_step(&cx, &cur, &wdata, &steps, chosen.effect) {
-                let st = steps.remove(r.step);
-                rejected.push(Rejection {
-                    effect: st.effect,
-                    value: st.value,
-                    nrmse_after: rms_nrmse(r.without.cost),
-                    reason: r.why,
-                });
-                adopt(&mut cur, r.without);
-                wdata = r.own;
+                remove_step(r, &mut steps, &mut rejected, &mut cur, &mut wdata);
             }
         }
         // A provisional step refuted goes back out, and the search resumes where it was taken,
@@ -993,15 +985,7 @@ fn diagnose_records(
         if !reviewed {
             reviewed = true;
             if let Some(r) = judge::backward_review(&cx, &cur, &wdata, &steps) {
-                let st = steps.remove(r.step);
-                rejected.push(Rejection {
-                    effect: st.effect,
-                    value: st.value,
-                    nrmse_after: rms_nrmse(r.without.cost),
-                    reason: r.why,
-                });
-                adopt(&mut cur, r.without);
-                wdata = r.own;
+                let st = remove_step(r, &mut steps, &mut rejected, &mut cur, &mut wdata);
                 cx.trace(format_args!(
                     "{pass}: {} removed in the review at the end",
                     st.effect.name()
@@ -1033,6 +1017,27 @@ fn diagnose_records(
             rejected,
         },
     )
+}
+
+/// Takes the step of `r` out: reported among the candidates not added with the reason, the
+/// model without it (`r.without`, on its rows `r.own`) the current one. Returns the step.
+fn remove_step(
+    r: judge::Removal,
+    steps: &mut Vec<Step>,
+    rejected: &mut Vec<Rejection>,
+    cur: &mut Fit,
+    wdata: &mut Vec<Data>,
+) -> Step {
+    let st = steps.remove(r.step);
+    rejected.push(Rejection {
+        effect: st.effect,
+        value: st.value,
+        nrmse_after: rms_nrmse(r.without.cost),
+        reason: r.why,
+    });
+    adopt(cur, r.without);
+    *wdata = r.own;
+    st
 }
 
 /// Settle the current model `cur` (on its rows `wdata`) once more from where it is,
