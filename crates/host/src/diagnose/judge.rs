@@ -264,6 +264,16 @@ pub(super) fn judge(
     // Each candidate's better refit, the candidates in parallel:
     // (cost over the current model's, fit, own rows, common rows, fit cost, current cost)
     type Alt = (f64, Fit, Vec<Data>, Vec<Data>, f64, f64);
+    // A point of a candidate (its knobs `knobs`) polished on its own rows — the polish can
+    // move it to where other rows are predictable: its rows and cost are taken anew where
+    // it ended — and judged against the current model on the rows both keep.
+    let assess = |params: &ActuatorParams, knobs: &[Knob]| -> Alt {
+        let (f, own) = polish_on_own_rows(params, knobs, cx.data, cx.opts.predictability, 8);
+        let common = common_rows(cx.data, wdata, &own);
+        let fit_c = calibrate::cost(&f.params, &common);
+        let cur_c = calibrate::cost(&cur.params, &common);
+        (fit_c / cur_c, f, own, common, fit_c, cur_c)
+    };
     let chosen_alts: Vec<Option<Alt>> = local
         .par_iter()
         .zip(alts)
@@ -275,14 +285,7 @@ pub(super) fn judge(
                     .knobs
                     .last()
                     .map_or(f64::NAN, |k| calibrate::get(&f.params, k.param));
-                // The polish can move it to where other rows are predictable: its rows
-                // and cost are taken anew where it ended.
-                let (f, own) =
-                    polish_on_own_rows(&f.params, &r.knobs, cx.data, cx.opts.predictability, 8);
-                let common = common_rows(cx.data, wdata, &own);
-                let fit_c = calibrate::cost(&f.params, &common);
-                let cur_c = calibrate::cost(&cur.params, &common);
-                let r = fit_c / cur_c;
+                let (r, f, own, common, fit_c, cur_c) = assess(&f.params, &r.knobs);
                 // A global refit competes only when it follows its own rows no worse than
                 // the current model follows its own (as in `better_on_common`): otherwise
                 // it can win on the few rows both keep, where the current model is at its
@@ -349,21 +352,18 @@ pub(super) fn judge(
                 let Some(m) = kin::mirror(&src.1.params, x.effect, from, r.effect) else {
                     continue;
                 };
-                let (f, own) = polish_on_own_rows(&m, &r.knobs, cx.data, cx.opts.predictability, 8);
-                let common = common_rows(cx.data, wdata, &own);
-                let fit_c = calibrate::cost(&f.params, &common);
-                let cur_c = calibrate::cost(&cur.params, &common);
-                let ratio = fit_c / cur_c;
+                let a = assess(&m, &r.knobs);
                 log::debug!(
-                    "    {} from {}'s polished refit: value {:.4e}, ratio {ratio:.4}, own rows NRMSE {:.4} (current {:.4})",
+                    "    {} from {}'s polished refit: value {:.4e}, ratio {:.4}, own rows NRMSE {:.4} (current {:.4})",
                     r.effect,
                     x.effect,
-                    f.values.last().copied().unwrap_or(f64::NAN),
-                    f.cost.sqrt(),
+                    a.1.values.last().copied().unwrap_or(f64::NAN),
+                    a.0,
+                    a.1.cost.sqrt(),
                     cur.cost.sqrt()
                 );
-                if f.cost <= cur.cost && best.as_ref().is_none_or(|b| ratio < b.0) {
-                    best = Some((ratio, f, own, common, fit_c, cur_c));
+                if a.1.cost <= cur.cost && best.as_ref().is_none_or(|b| a.0 < b.0) {
+                    best = Some(a);
                 }
             }
             best
@@ -1702,11 +1702,11 @@ mod tests {
     /// was added ([`backward_step`]) tests only the friction, and keeps both.
     #[test]
     fn the_review_at_the_end_removes_a_last_step_the_model_does_without() {
-        use super::super::tests::{bare_step, noisy};
+        use super::super::tests::{bare_step, noisy, rms_of};
         use super::kin::tests::{record, unit};
         let truth = unit(Effect::LoadViscous, 0.02);
         let clean = record(&truth);
-        let rms = (clean.y.iter().map(|v| v * v).sum::<f64>() / clean.y.len() as f64).sqrt();
+        let rms = rms_of(&clean.y);
         let d = noisy(clean);
         let data = std::slice::from_ref(&d);
         let opts = Options::default();

@@ -1418,14 +1418,18 @@ mod tests {
             .collect()
     }
 
+    /// The root mean square of `y` (0 when empty).
+    pub(super) fn rms_of(y: &[f64]) -> f64 {
+        (y.iter().map(|v| v * v).sum::<f64>() / y.len().max(1) as f64).sqrt()
+    }
+
     /// `clean` with Gaussian noise of 2 % of its RMS added.
     pub(super) fn noisy(clean: Data) -> Data {
-        let rms = (clean.y.iter().map(|v| v * v).sum::<f64>() / clean.y.len() as f64).sqrt();
         let mut d = clean.clone();
         d.y = clean
             .y
             .iter()
-            .zip(noise(clean.y.len(), 0.02 * rms))
+            .zip(noise(clean.y.len(), 0.02 * rms_of(&clean.y)))
             .map(|(v, e)| v + e)
             .collect();
         d
@@ -1464,7 +1468,7 @@ mod tests {
             })
             .collect();
         let clean = data_of(volts, h, Some(&p));
-        let rms = (clean.y.iter().map(|v| v * v).sum::<f64>() / clean.y.len() as f64).sqrt();
+        let rms = rms_of(&clean.y);
         let sigma = 0.02 * rms;
         let e = noise(clean.y.len(), sigma);
         let record = |extra: &dyn Fn(usize, f64) -> f64| -> Data {
