@@ -4,6 +4,7 @@
 use crate::calibrate::{self, Data, Fit, Knob};
 use crate::diagnose::{Outcome, ResidualKind};
 use crate::predictability;
+use crate::repeat::Repeating;
 use crate::residual;
 use geared_servo::ActuatorParams;
 use serde_json::{json, Map, Value};
@@ -137,6 +138,17 @@ impl Outcome {
             "noise",
             json!({"sigma": self.noise_sigma, "floor_nrmse": self.floor_nrmse, "robust_floor_ratio": self.robust_floor_ratio, "residual": self.residual.name()}),
         );
+        if let Some(n) = v.get_mut("noise") {
+            insert(
+                n,
+                "repeating",
+                json!(self
+                    .repeating
+                    .iter()
+                    .map(|r| r.map(repeating_json))
+                    .collect::<Vec<_>>()),
+            );
+        }
         insert(
             &mut v,
             "unpredictable_share",
@@ -197,6 +209,9 @@ impl Outcome {
                     "held_out_nrmse",
                     json!({"nrmse": x, "floor_nrmse": f}),
                 );
+            }
+            if let Some(r) = self.validation_repeating {
+                insert(&mut val, "repeating", repeating_json(r));
             }
             insert(&mut v, "validation", val);
         }
@@ -404,6 +419,35 @@ impl Outcome {
                 }
             );
         }
+        let records = self.repeating.len();
+        let mut lines: Vec<String> = self
+            .repeating
+            .iter()
+            .enumerate()
+            .filter_map(|(i, r)| {
+                let what = if records == 1 {
+                    "the record".to_string()
+                } else {
+                    format!("record {}", i + 1)
+                };
+                repeating_line(&what, *r)
+            })
+            .collect();
+        if self.validation_in_fit.is_none() {
+            lines.extend(repeating_line(
+                "the validation record (held out)",
+                self.validation_repeating,
+            ));
+        }
+        if !lines.is_empty() {
+            let _ = writeln!(
+                s,
+                "residual that repeats with the command (rattle does not):"
+            );
+            for line in lines {
+                let _ = writeln!(s, "{line}");
+            }
+        }
         if self.residual == ResidualKind::FewWindows {
             let material = self.material_ratio;
             let plain_ratio = self.final_fit.cost.sqrt() / self.floor_nrmse;
@@ -431,6 +475,39 @@ impl Outcome {
         }
         s
     }
+}
+
+/// `noise.repeating`'s entry for one record (docs/INTERFACES.md).
+fn repeating_json(r: Repeating) -> Value {
+    json!({
+        "period_s": r.period_s,
+        "noise_sigma": r.noise_sigma,
+        "periods": r.periods,
+        "residual_rms": r.mean_square.sqrt(),
+        "repeating_rms": r.repeating_mean_square.sqrt(),
+    })
+}
+
+/// The summary's line on the part of each residual that repeats with a periodic command
+/// (`what` names the record), or `None` when the command is not periodic.
+fn repeating_line(what: &str, r: Option<Repeating>) -> Option<String> {
+    let r = r?;
+    let sigma = r.noise_sigma;
+    let excess = (r.mean_square - sigma * sigma).max(0.0);
+    Some(format!(
+        "  {what}: the command repeats every {:.4} s ({} periods); of the residual's RMS {:.4} (noise {:.4}), {:.4} repeats with it ({:.0} % of what exceeds the noise): {}",
+        r.period_s,
+        r.periods,
+        r.mean_square.sqrt(),
+        sigma,
+        r.repeating_mean_square.sqrt(),
+        100.0 * r.repeating_mean_square / excess.max(f64::MIN_POSITIVE),
+        if r.repeating_mean_square > 0.5 * excess {
+            "mostly a deterministic response the model lacks"
+        } else {
+            "mostly what does not repeat (noise, rattle)"
+        }
+    ))
 }
 
 /// One line for each parameter of `fit` at a bound of the calibration.

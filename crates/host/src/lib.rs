@@ -33,6 +33,7 @@ pub mod plots;
 pub mod predictability;
 pub mod progress;
 pub mod record;
+pub mod repeat;
 pub mod residual;
 pub mod response;
 pub mod scenario_file;

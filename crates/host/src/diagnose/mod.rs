@@ -56,6 +56,7 @@ use crate::error::HostError;
 use crate::noise;
 use crate::predictability;
 use crate::progress::Progress;
+use crate::repeat::Repeating;
 use crate::residual::{self, Analysis};
 use geared_servo::{ActuatorParams, Effect};
 use settle::{
@@ -175,8 +176,10 @@ pub enum ResidualKind {
     /// model, rattle the predictability assessment kept), so it is not claimed as a missing
     /// effect.
     FewWindows,
-    /// Above the limit plainly and under the robust window loss: spread over the record.
-    /// With no candidate left to explain it, the diagnosis is *unexplained*.
+    /// Above the limit plainly and under the robust window loss (spread over the record), or
+    /// in a few windows that come back in every period of a periodic command, more than the
+    /// limit allows ([`Outcome::repeating`]). With no candidate left to explain it, the
+    /// diagnosis is *unexplained*.
     Systematic,
 }
 
@@ -253,6 +256,14 @@ pub struct Outcome {
     /// final model ([`predictability::span_levels`]): a span where the model's level is far
     /// from the record's is one it has not explained, only excused.
     pub unpredictable_spans: Vec<predictability::SpanLevel>,
+    /// Per fitted record whose command is periodic ([`crate::repeat::command_period`]), the
+    /// final model's residual over every row and the part of it that repeats with the
+    /// command; `None` for a record whose command is not periodic. Rattle leaves a residual
+    /// that does not repeat; a repeating part above what the floor's limit allows
+    /// ([`Options::material_ratio`]) makes a residual in a few windows systematic.
+    pub repeating: Vec<Option<Repeating>>,
+    /// The same on the validation record, when it was given.
+    pub validation_repeating: Option<Repeating>,
 }
 
 fn rms_nrmse(cost: f64) -> f64 {
@@ -339,9 +350,27 @@ pub fn diagnose_with(
     else {
         return Ok(out);
     };
-    if after <= opts.material_ratio * v_floor {
-        return finished(file_params, data, validation, opts, progress, out);
-    }
+    log::debug!(
+        "validation after the first pass: NRMSE {after:.4}, floor {v_floor:.4} (a second pass above x{})",
+        opts.material_ratio
+    );
+    // The model the first pass reports is the finished one (the fine search moves it, and
+    // with it the rows of the validation record it calls predictable): a material residual
+    // it leaves there sends the diagnosis on as well (second_mode/59 of the foreign suite:
+    // 0.0542 at a floor of 0.0451 before the fine search, 0.0370 at 0.0210 after).
+    let (out, after, v_floor) = if after <= opts.material_ratio * v_floor {
+        let fin = finished(file_params, data, validation, opts, progress, out)?;
+        let (Some((_, fa)), Some(ff)) = (fin.validation, fin.validation_floor) else {
+            return Ok(fin);
+        };
+        log::debug!("validation after the fine search: NRMSE {fa:.4}, floor {ff:.4}");
+        if fa <= opts.material_ratio * ff {
+            return Ok(fin);
+        }
+        (fin, fa, ff)
+    } else {
+        (out, after, v_floor)
+    };
     let mut all = data.to_vec();
     all.push(v.clone());
     let mut both = diagnose_records(file_params, &all, None, opts, progress, Some(&out), true)?;
@@ -466,17 +495,36 @@ impl<'a> Ctx<'a> {
 
     /// What a residual of cost `c` on its rows `data` is: material ([`Ctx::material`]) and
     /// systematic when its robust ratio `robust` ([`Ctx::robust_ratio`]) is above
-    /// [`Options::material_ratio`] as well. Only a systematic residual can be
-    /// *unexplained*: what exceeds the floor in a few windows alone is rattle the
-    /// assessment did not catch.
-    fn residual_kind(&self, c: f64, robust: f64, data: &[Data]) -> ResidualKind {
+    /// [`Options::material_ratio`] as well, or when on some record the part of it that
+    /// repeats with a periodic command (`repeating`, one per record) is material
+    /// ([`Ctx::material_repeating`]). Only a systematic residual can be *unexplained*: what
+    /// exceeds the floor in a few windows alone, and does not come back period after
+    /// period, is rattle the assessment did not catch.
+    fn residual_kind(
+        &self,
+        c: f64,
+        robust: f64,
+        data: &[Data],
+        repeating: &[Option<Repeating>],
+    ) -> ResidualKind {
         if !self.material(c, data) {
             ResidualKind::AtFloor
-        } else if robust > self.opts.material_ratio {
+        } else if robust > self.opts.material_ratio
+            || repeating
+                .iter()
+                .any(|r| r.is_some_and(|r| self.material_repeating(&r)))
+        {
             ResidualKind::Systematic
         } else {
             ResidualKind::FewWindows
         }
+    }
+
+    /// The part of a residual that repeats with the command, `r`, is material: alone it
+    /// would take the NRMSE above [`Options::material_ratio`] times the floor (its mean
+    /// square above (ratio² − 1) σ², σ the record's noise standard deviation).
+    fn material_repeating(&self, r: &Repeating) -> bool {
+        r.repeating_mean_square > (self.opts.material_ratio.powi(2) - 1.0) * r.noise_sigma.powi(2)
     }
 
     /// A fit of cost `c` on its own rows `data` is poor: above [`Options::poor_ratio`] times
@@ -1019,6 +1067,14 @@ fn diagnose_records(
     )
 }
 
+/// The residual of `p` on every row of `d` and the part of it that repeats with the
+/// record's command ([`crate::repeat::repeating`]); `None` when the command is not periodic.
+fn repeating_of(p: &ActuatorParams, d: &Data) -> Option<Repeating> {
+    let t = calibrate::simulate(p, d)?;
+    let e: Vec<f64> = d.y.iter().zip(&t.y).map(|(a, b)| a - b).collect();
+    crate::repeat::repeating(&d.volts, &e, &[], d.sample_period_s, noise::sigma(&d.y))
+}
+
 /// Takes the step of `r` out: reported among the candidates not added with the reason, the
 /// model without it (`r.without`, on its rows `r.own`) the current one. Returns the step.
 fn remove_step(
@@ -1232,7 +1288,12 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
     let wfirst = wdata.first().unwrap_or(first);
     let (final_analysis, final_trace) = analyse(&cur.params, wfirst)?;
     let robust_ratio = cx.robust_ratio(&cur.params, &wdata);
-    let residual = cx.residual_kind(cur.cost, robust_ratio, &wdata);
+    // A residual in a few windows is excused as rattle unless it comes back in every
+    // period of a periodic command (crate::repeat): rattle does not repeat, a response the
+    // model lacks does.
+    let repeating: Vec<Option<Repeating>> =
+        wdata.iter().map(|d| repeating_of(&cur.params, d)).collect();
+    let residual = cx.residual_kind(cur.cost, robust_ratio, &wdata, &repeating);
     let unexplained = residual == ResidualKind::Systematic;
     for st in &mut steps {
         st.partial = unexplained;
@@ -1288,6 +1349,8 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
         noise_sigma: cx.sigma.clone(),
         unpredictable_rms,
         unpredictable_spans,
+        validation_repeating: cx.validation.and_then(|v| repeating_of(&cur.params, v)),
+        repeating,
         final_fit: cur,
         validation,
         validation_floor,
@@ -1451,17 +1514,18 @@ mod tests {
 
     /// The verdict's line ([`Ctx::residual_kind`]): noise alone is at the floor, a residual
     /// spread over the record is systematic (unexplained), and one larger still (plainly)
-    /// that sits in a few windows is not.
+    /// that sits in a few windows is not, unless it comes back in every period of the
+    /// command.
     #[test]
-    fn a_residual_in_a_few_windows_is_not_unexplained() {
+    fn a_residual_in_a_few_windows_is_not_unexplained_unless_it_repeats() {
         let h = 5e-4;
         let mut p = REFERENCE;
         p.sample_period_s = h;
-        // 2 s of a 7 V multisine (5, 23, 61 Hz).
+        // 2 s of a 7 V multisine (2.5, 25, 62.5 Hz: it repeats every 0.4 s).
         let volts: Vec<f64> = (0..4000)
             .map(|k| {
                 let t = k as f64 * h;
-                [5.0, 23.0, 61.0]
+                [2.5, 25.0, 62.5]
                     .iter()
                     .map(|f| 7.0 / 3.0 * (std::f64::consts::TAU * f * t).sin())
                     .sum()
@@ -1498,10 +1562,20 @@ mod tests {
             };
             let c = calibrate::cost(&p, data);
             let robust = cx.robust_ratio(&p, data);
+            let repeating = [crate::repeat::repeating(
+                &d.volts,
+                &d.y.iter()
+                    .zip(&clean.y)
+                    .map(|(a, b)| a - b)
+                    .collect::<Vec<_>>(),
+                &[],
+                h,
+                sigma,
+            )];
             let v = (
                 (c / cx.floor(data)).sqrt(),
                 robust,
-                cx.residual_kind(c, robust, data),
+                cx.residual_kind(c, robust, data, &repeating),
             );
             eprintln!("plain {:.3}x robust {:.3}x {:?}", v.0, v.1, v.2);
             v
@@ -1526,6 +1600,32 @@ mod tests {
             }
         }));
         assert!(plain > 1.5, "plain {plain}");
+        assert!(robust < 1.2, "robust {robust}");
+        assert_eq!(kind, ResidualKind::FewWindows);
+        // The command repeats every 0.4 s: the same excess in a few windows is systematic
+        // when it comes back at the same phase of every period (a response the model
+        // lacks), and stays in a few windows when each period has its own (rattle).
+        let period = 800;
+        let burst = |k: usize| k % period < win;
+        let (plain, robust, kind) = verdict(&record(&|k, _| {
+            if burst(k) {
+                0.1 * rms * (0.3 * (k % period) as f64).sin()
+            } else {
+                0.0
+            }
+        }));
+        assert!(plain > 1.2, "plain {plain}");
+        assert!(robust < 1.2, "robust {robust}");
+        assert_eq!(kind, ResidualKind::Systematic);
+        let other = noise(2 * clean.y.len(), 1.0).split_off(clean.y.len());
+        let (plain, robust, kind) = verdict(&record(&|k, _| {
+            if burst(k) {
+                0.1 * rms * other[k].signum() * (0.3 * (k % period) as f64).sin().abs()
+            } else {
+                0.0
+            }
+        }));
+        assert!(plain > 1.2, "plain {plain}");
         assert!(robust < 1.2, "robust {robust}");
         assert_eq!(kind, ResidualKind::FewWindows);
     }
