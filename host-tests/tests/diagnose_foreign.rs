@@ -428,6 +428,25 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
                 if *err <= VALUE_TOL { "" } else { " OUT" }
             );
         }
+        // How the verdict's residual was read: its kind, whether the validation record was
+        // fitted, and per record whose command repeats, the residual's RMS and the part of
+        // it that repeats with the command, over the record's noise level.
+        let rep = |r: &Option<geared_servo_host::repeat::Repeating>| match r {
+            Some(r) => format!(
+                "{:.2}/{:.2} sigma",
+                r.mean_square.sqrt() / r.noise_sigma,
+                r.repeating_mean_square.sqrt() / r.noise_sigma
+            ),
+            None => "-".into(),
+        };
+        eprintln!(
+            "    residual {} (robust x{:.2}); validation in fit {}; residual/repeating per record {:?}, held-out validation {}",
+            out.residual.name(),
+            out.robust_floor_ratio,
+            out.validation_in_fit.is_some(),
+            out.repeating.iter().map(rep).collect::<Vec<_>>(),
+            rep(&out.validation_repeating)
+        );
         if !right || !values_ok || !nrmse_ok {
             eprintln!(
                 "    base fit vs truth x s: {}",
