@@ -493,20 +493,27 @@ fn repeating_json(r: Repeating) -> Value {
 fn repeating_line(what: &str, r: Option<Repeating>) -> Option<String> {
     let r = r?;
     let sigma = r.noise_sigma;
-    let excess = (r.mean_square - sigma * sigma).max(0.0);
+    let excess = r.mean_square - sigma * sigma;
+    let reading = if excess <= 0.0 {
+        "the residual is within the noise".to_string()
+    } else {
+        format!(
+            "{:.0} % of what exceeds the noise: {}",
+            100.0 * r.repeating_mean_square / excess,
+            if r.repeating_mean_square > 0.5 * excess {
+                "mostly a deterministic response the model lacks"
+            } else {
+                "mostly what does not repeat (noise, rattle)"
+            }
+        )
+    };
     Some(format!(
-        "  {what}: the command repeats every {:.4} s ({} periods); of the residual's RMS {:.4} (noise {:.4}), {:.4} repeats with it ({:.0} % of what exceeds the noise): {}",
+        "  {what}: the command repeats every {:.4} s ({} periods); of the residual's RMS {:.4} (noise {:.4}), {:.4} repeats with it ({reading})",
         r.period_s,
         r.periods,
         r.mean_square.sqrt(),
         sigma,
         r.repeating_mean_square.sqrt(),
-        100.0 * r.repeating_mean_square / excess.max(f64::MIN_POSITIVE),
-        if r.repeating_mean_square > 0.5 * excess {
-            "mostly a deterministic response the model lacks"
-        } else {
-            "mostly what does not repeat (noise, rattle)"
-        }
     ))
 }
 
