@@ -1076,12 +1076,13 @@ fn material_repeating(opts: &Options, r: &Repeating) -> bool {
     r.repeating_mean_square > (opts.material_ratio.powi(2) - 1.0) * r.noise_sigma.powi(2)
 }
 
-/// The residual of `p` on every row of `d` and the part of it that repeats with the
-/// record's command ([`crate::repeat::repeating`]); `None` when the command is not periodic.
-fn repeating_of(p: &ActuatorParams, d: &Data) -> Option<Repeating> {
+/// The residual of `p` on every row of `d` (noise standard deviation `sigma`, as [`Ctx`]
+/// estimated it) and the part of it that repeats with the record's command
+/// ([`crate::repeat::repeating`]); `None` when the command is not periodic.
+fn repeating_of(p: &ActuatorParams, d: &Data, sigma: f64) -> Option<Repeating> {
     let t = calibrate::simulate(p, d)?;
     let e: Vec<f64> = d.y.iter().zip(&t.y).map(|(a, b)| a - b).collect();
-    crate::repeat::repeating(&d.volts, &e, &[], d.sample_period_s, noise::sigma(&d.y))
+    crate::repeat::repeating(&d.volts, &e, &[], d.sample_period_s, sigma)
 }
 
 /// Takes the step of `r` out: reported among the candidates not added with the reason, the
@@ -1300,8 +1301,11 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
     // A residual in a few windows is excused as rattle unless it comes back in every
     // period of a periodic command (crate::repeat): rattle does not repeat, a response the
     // model lacks does.
-    let repeating: Vec<Option<Repeating>> =
-        wdata.iter().map(|d| repeating_of(&cur.params, d)).collect();
+    let repeating: Vec<Option<Repeating>> = wdata
+        .iter()
+        .zip(&cx.sigma)
+        .map(|(d, &s)| repeating_of(&cur.params, d, s))
+        .collect();
     let residual = cx.residual_kind(cur.cost, robust_ratio, &wdata, &repeating);
     let unexplained = residual == ResidualKind::Systematic;
     for st in &mut steps {
@@ -1358,7 +1362,10 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
         noise_sigma: cx.sigma.clone(),
         unpredictable_rms,
         unpredictable_spans,
-        validation_repeating: cx.validation.and_then(|v| repeating_of(&cur.params, v)),
+        validation_repeating: cx
+            .validation
+            .zip(cx.val_sigma)
+            .and_then(|(v, s)| repeating_of(&cur.params, v, s)),
         repeating,
         final_fit: cur,
         validation,
