@@ -871,6 +871,28 @@ pub struct Identifiability {
     pub tried: Vec<(ActuatorParams, [f64; 4])>,
 }
 
+/// How `p`, a model without `case`'s hidden effect, follows the records on the truth's
+/// predictable rows, as [`Identifiability::nrmse`] has it: (estimation truth, `p`,
+/// validation truth, `p`). A model so close to the truth on both records (within
+/// [`WITNESS_RATIO`]) is a witness as good as the refitted one: any model without the
+/// effect is an existence proof, whoever found it.
+///
+/// # Panics
+/// When the case's truth is not a valid parameter set (the suite makes them valid).
+pub fn on_truth_rows(case: &ForeignCase, p: &ActuatorParams) -> [f64; 4] {
+    let mut t = calibrate::with_measured_stiffness(&case.truth)
+        .expect("the suite's units are valid parameter sets");
+    t.sample_period_s = case.estimation.sample_period_s;
+    let (we, _) = predictability::weigh(&t, &case.estimation);
+    let (wv, _) = predictability::weigh(&t, &case.validation);
+    [
+        calibrate::nrmse(&t, &we),
+        calibrate::nrmse(p, &we),
+        calibrate::nrmse(&t, &wv),
+        calibrate::nrmse(p, &wv),
+    ]
+}
+
 /// A witness within this factor of the truth's NRMSE on both records shows that the records
 /// cannot tell the effect from the base set (an existence proof: another explanation exists
 /// that needs no effect; a weaker calibration could only fail to find one, never invent it).
