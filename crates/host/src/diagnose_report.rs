@@ -4,7 +4,7 @@
 use crate::calibrate::{self, Data, Fit, Knob};
 use crate::diagnose::{Outcome, ResidualKind};
 use crate::predictability;
-use crate::repeat::Repeating;
+use crate::repeat::{Coherent, Repeating};
 use crate::residual;
 use geared_servo::ActuatorParams;
 use serde_json::{json, Map, Value};
@@ -146,6 +146,15 @@ impl Outcome {
                     .repeating
                     .iter()
                     .map(|r| r.map(repeating_json))
+                    .collect::<Vec<_>>()),
+            );
+            insert(
+                n,
+                "coherent",
+                json!(self
+                    .coherent
+                    .iter()
+                    .map(|r| r.map(coherent_json))
                     .collect::<Vec<_>>()),
             );
         }
@@ -448,6 +457,29 @@ impl Outcome {
                 let _ = writeln!(s, "{line}");
             }
         }
+        let records = self.coherent.len();
+        let lines: Vec<String> = self
+            .coherent
+            .iter()
+            .enumerate()
+            .filter_map(|(i, r)| {
+                let what = if records == 1 {
+                    "the record".to_string()
+                } else {
+                    format!("record {}", i + 1)
+                };
+                coherent_line(&what, *r)
+            })
+            .collect();
+        if !lines.is_empty() {
+            let _ = writeln!(
+                s,
+                "residual coherent with the stepped sine's bursts (rattle is not):"
+            );
+            for line in lines {
+                let _ = writeln!(s, "{line}");
+            }
+        }
         if self.residual == ResidualKind::FewWindows {
             let material = self.material_ratio;
             let plain_ratio = self.final_fit.cost.sqrt() / self.floor_nrmse;
@@ -486,6 +518,43 @@ fn repeating_json(r: Repeating) -> Value {
         "residual_rms": r.mean_square.sqrt(),
         "repeating_rms": r.repeating_mean_square.sqrt(),
     })
+}
+
+/// `noise.coherent`'s entry for one record (docs/INTERFACES.md).
+fn coherent_json(c: Coherent) -> Value {
+    json!({
+        "bursts": c.bursts,
+        "coherent_bursts": c.coherent_bursts,
+        "noise_sigma": c.noise_sigma,
+        "residual_rms": c.mean_square.sqrt(),
+        "coherent_rms": c.coherent_mean_square.sqrt(),
+        "worst_hz": if c.worst_hz.is_finite() { json!(c.worst_hz) } else { Value::Null },
+        "worst_rms": c.worst_rms,
+        "worst_share": c.worst_share,
+    })
+}
+
+/// The summary's line on the part of each residual coherent with a stepped sine's bursts
+/// (`what` names the record), or `None` without sine bursts.
+fn coherent_line(what: &str, c: Option<Coherent>) -> Option<String> {
+    let c = c?;
+    let worst = if c.worst_hz.is_finite() {
+        format!(
+            "; the largest at {:.1} Hz, RMS {:.4} ({:.0} % of that burst's residual above the noise)",
+            c.worst_hz,
+            c.worst_rms,
+            100.0 * c.worst_share
+        )
+    } else {
+        String::new()
+    };
+    Some(format!(
+        "  {what}: {} sine bursts, {} of them mostly coherent (a deterministic response the model lacks), their coherent part RMS {:.4} over the record (noise {:.4}){worst}",
+        c.bursts,
+        c.coherent_bursts,
+        c.coherent_mean_square.sqrt(),
+        c.noise_sigma
+    ))
 }
 
 /// The summary's line on the part of each residual that repeats with a periodic command

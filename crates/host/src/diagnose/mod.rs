@@ -56,7 +56,7 @@ use crate::error::HostError;
 use crate::noise;
 use crate::predictability;
 use crate::progress::Progress;
-use crate::repeat::Repeating;
+use crate::repeat::{Coherent, Repeating};
 use crate::residual::{self, Analysis};
 use geared_servo::{ActuatorParams, Effect};
 use settle::{
@@ -177,9 +177,10 @@ pub enum ResidualKind {
     /// effect.
     FewWindows,
     /// Above the limit plainly and under the robust window loss (spread over the record), or
-    /// in a few windows that come back in every period of a periodic command, more than the
-    /// limit allows ([`Outcome::repeating`]). With no candidate left to explain it, the
-    /// diagnosis is *unexplained*.
+    /// in a few windows that come back in every period of a periodic command, or that are
+    /// coherent with a stepped sine's bursts, more than the limit allows
+    /// ([`Outcome::repeating`], [`Outcome::coherent`]). With no candidate left to explain
+    /// it, the diagnosis is *unexplained*.
     Systematic,
 }
 
@@ -264,6 +265,13 @@ pub struct Outcome {
     pub repeating: Vec<Option<Repeating>>,
     /// The same on the validation record, when it was given.
     pub validation_repeating: Option<Repeating>,
+    /// Per fitted record whose command holds sine bursts ([`crate::repeat::sine_bursts`]:
+    /// a stepped sine), the final model's residual over every row and the part of it
+    /// coherent with the bursts' frequencies; `None` for a record without sine bursts. A
+    /// burst where the unit rattles leaves a residual mostly incoherent; the coherent parts
+    /// of the bursts where they are the majority, above what the floor's limit allows
+    /// ([`Options::material_ratio`]), make a residual in a few windows systematic.
+    pub coherent: Vec<Option<Coherent>>,
 }
 
 fn rms_nrmse(cost: f64) -> f64 {
@@ -506,15 +514,18 @@ impl<'a> Ctx<'a> {
     /// systematic when its robust ratio `robust` ([`Ctx::robust_ratio`]) is above
     /// [`Options::material_ratio`] as well, or when on some record the part of it that
     /// repeats with a periodic command (`repeating`, one per record) is material
-    /// ([`material_repeating`]). Only a systematic residual can be *unexplained*: what
-    /// exceeds the floor in a few windows alone, and does not come back period after
-    /// period, is rattle the assessment did not catch.
+    /// ([`material_repeating`]), or the part coherent with a stepped sine's bursts
+    /// (`coherent`, one per record) is ([`material_coherent`]). Only a systematic residual
+    /// can be *unexplained*: what exceeds the floor in a few windows alone, and neither
+    /// comes back period after period nor follows the bursts' frequencies, is rattle the
+    /// assessment did not catch.
     fn residual_kind(
         &self,
         c: f64,
         robust: f64,
         data: &[Data],
         repeating: &[Option<Repeating>],
+        coherent: &[Option<Coherent>],
     ) -> ResidualKind {
         if !self.material(c, data) {
             ResidualKind::AtFloor
@@ -522,6 +533,9 @@ impl<'a> Ctx<'a> {
             || repeating
                 .iter()
                 .any(|r| r.is_some_and(|r| material_repeating(self.opts, &r)))
+            || coherent
+                .iter()
+                .any(|r| r.is_some_and(|r| material_coherent(self.opts, &r)))
         {
             ResidualKind::Systematic
         } else {
@@ -1076,13 +1090,26 @@ fn material_repeating(opts: &Options, r: &Repeating) -> bool {
     r.repeating_mean_square > (opts.material_ratio.powi(2) - 1.0) * r.noise_sigma.powi(2)
 }
 
+/// Whether the coherent parts of a stepped sine's mostly coherent bursts, over the whole
+/// record, exceed what the floor's limit allows: (material_ratio² − 1) σ², as for
+/// [`material_repeating`].
+fn material_coherent(opts: &Options, c: &Coherent) -> bool {
+    c.coherent_mean_square > (opts.material_ratio.powi(2) - 1.0) * c.noise_sigma.powi(2)
+}
+
 /// The residual of `p` on every row of `d` (noise standard deviation `sigma`, as [`Ctx`]
 /// estimated it) and the part of it that repeats with the record's command
-/// ([`crate::repeat::repeating`]); `None` when the command is not periodic.
-fn repeating_of(p: &ActuatorParams, d: &Data, sigma: f64) -> Option<Repeating> {
-    let t = calibrate::simulate(p, d)?;
+/// ([`crate::repeat::repeating`]; `None` when the command is not periodic), with the part
+/// coherent with its sine bursts ([`crate::repeat::coherent`]; `None` without bursts).
+fn with_command(p: &ActuatorParams, d: &Data, sigma: f64) -> (Option<Repeating>, Option<Coherent>) {
+    let Some(t) = calibrate::simulate(p, d) else {
+        return (None, None);
+    };
     let e: Vec<f64> = d.y.iter().zip(&t.y).map(|(a, b)| a - b).collect();
-    crate::repeat::repeating(&d.volts, &e, &[], d.sample_period_s, sigma)
+    (
+        crate::repeat::repeating(&d.volts, &e, &[], d.sample_period_s, sigma),
+        crate::repeat::coherent(&d.volts, &e, d.sample_period_s, sigma),
+    )
 }
 
 /// Takes the step of `r` out: reported among the candidates not added with the reason, the
@@ -1301,12 +1328,14 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
     // A residual in a few windows is excused as rattle unless it comes back in every
     // period of a periodic command (crate::repeat): rattle does not repeat, a response the
     // model lacks does.
-    let repeating: Vec<Option<Repeating>> = wdata
+    // Nor unless, on a stepped sine, it follows the bursts' frequencies where it is large
+    // (crate::repeat::coherent): rattle is chaotic at any frequency.
+    let (repeating, coherent): (Vec<Option<Repeating>>, Vec<Option<Coherent>>) = wdata
         .iter()
         .zip(&cx.sigma)
-        .map(|(d, &s)| repeating_of(&cur.params, d, s))
-        .collect();
-    let residual = cx.residual_kind(cur.cost, robust_ratio, &wdata, &repeating);
+        .map(|(d, &s)| with_command(&cur.params, d, s))
+        .unzip();
+    let residual = cx.residual_kind(cur.cost, robust_ratio, &wdata, &repeating, &coherent);
     let unexplained = residual == ResidualKind::Systematic;
     for st in &mut steps {
         st.partial = unexplained;
@@ -1365,8 +1394,9 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
         validation_repeating: cx
             .validation
             .zip(cx.val_sigma)
-            .and_then(|(v, s)| repeating_of(&cur.params, v, s)),
+            .and_then(|(v, s)| with_command(&cur.params, v, s).0),
         repeating,
+        coherent,
         final_fit: cur,
         validation,
         validation_floor,
@@ -1531,7 +1561,7 @@ mod tests {
     /// The verdict's line ([`Ctx::residual_kind`]): noise alone is at the floor, a residual
     /// spread over the record is systematic (unexplained), and one larger still (plainly)
     /// that sits in a few windows is not, unless it comes back in every period of the
-    /// command.
+    /// command or follows a stepped sine's bursts.
     #[test]
     fn a_residual_in_a_few_windows_is_not_unexplained_unless_it_repeats() {
         let h = 5e-4;
@@ -1564,7 +1594,7 @@ mod tests {
             d.with_weights(&vec![1.0; d.y.len()])
         };
         let opts = Options::default();
-        let verdict = |d: &Data| {
+        let verdict_with = |d: &Data, coherent: Option<Coherent>| {
             let data = std::slice::from_ref(d);
             let cx = Ctx {
                 nominal: p,
@@ -1591,11 +1621,12 @@ mod tests {
             let v = (
                 (c / cx.floor(data)).sqrt(),
                 robust,
-                cx.residual_kind(c, robust, data, &repeating),
+                cx.residual_kind(c, robust, data, &repeating, &[coherent]),
             );
             eprintln!("plain {:.3}x robust {:.3}x {:?}", v.0, v.1, v.2);
             v
         };
+        let verdict = |d: &Data| verdict_with(d, None);
         // Noise alone: both ratios near 1.
         let (plain, robust, kind) = verdict(&record(&|_, _| 0.0));
         assert!((0.9..1.1).contains(&plain), "plain {plain}");
@@ -1618,6 +1649,28 @@ mod tests {
         assert!(plain > 1.5, "plain {plain}");
         assert!(robust < 1.2, "robust {robust}");
         assert_eq!(kind, ResidualKind::FewWindows);
+        // Were the command a stepped sine, the same residual would be systematic when the
+        // bursts' coherent parts (crate::repeat::coherent) exceed the limit's excess over
+        // the record, (1.2² − 1) σ², and stay in a few windows below it.
+        let at = |share_of_limit: f64| {
+            let few = record(&|k, _| if (k / win) % 100 == 7 { 0.4 * rms } else { 0.0 });
+            verdict_with(
+                &few,
+                Some(Coherent {
+                    bursts: 20,
+                    coherent_bursts: 1,
+                    noise_sigma: sigma,
+                    mean_square: 3.0 * sigma * sigma,
+                    coherent_mean_square: share_of_limit * 0.44 * sigma * sigma,
+                    worst_hz: 184.5,
+                    worst_rms: 5.0 * sigma,
+                    worst_share: 0.7,
+                }),
+            )
+            .2
+        };
+        assert_eq!(at(1.05), ResidualKind::Systematic);
+        assert_eq!(at(0.95), ResidualKind::FewWindows);
         // The command repeats every 0.4 s: the same excess in a few windows is systematic
         // when it comes back at the same phase of every period (a response the model
         // lacks), and stays in a few windows when each period has its own (rattle).
