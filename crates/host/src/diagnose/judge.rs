@@ -214,6 +214,16 @@ fn distortion(cur: &Fit, f: &Fit) -> f64 {
         .sum()
 }
 
+/// Whether a refit of cost `fit_c` on its own predictable rows follows them no worse than
+/// the current model, of cost `cur_c` on its own, follows its own: within one standard
+/// deviation of a mean square over the current model's `n_eff` effective samples
+/// (relative sqrt(2 / n_eff)). A strict comparison refused tach_gain/65 of the foreign
+/// suite's gain refit, near the unit's (5.95e-2 for 7.09e-2; 0.44 of the current model's
+/// cost on the rows both keep), for NRMSE 0.0358 against 0.0357 on its own rows.
+fn follows_own_rows(fit_c: f64, cur_c: f64, n_eff: f64) -> bool {
+    fit_c <= cur_c * (1.0 + (2.0 / n_eff.max(2.0)).sqrt())
+}
+
 /// Lag-1 autocorrelation of the stacked residuals of `p` (first record).
 fn effective_samples(p: &ActuatorParams, data: &[Data]) -> f64 {
     let n: f64 = data.iter().map(Data::weight_sum).sum();
@@ -261,6 +271,7 @@ pub(super) fn judge(
     cur_bounds: &[String],
 ) -> Vec<Judged> {
     let opts = cx.opts;
+    let cur_n_eff = effective_samples(&cur.params, wdata);
     // Each candidate's better refit, the candidates in parallel:
     // (cost over the current model's, fit, own rows, common rows, fit cost, current cost)
     type Alt = (f64, Fit, Vec<Data>, Vec<Data>, f64, f64);
@@ -298,7 +309,7 @@ pub(super) fn judge(
                 // admissible point of the same candidate (tach_gain/28: the gain's local
                 // refit at NRMSE 0.1026 on its own rows against the current model's
                 // 0.0792, its mirror of the motor friction's refit at the friction's).
-                let follows = f.cost <= cur.cost;
+                let follows = follows_own_rows(f.cost, cur.cost, cur_n_eff);
                 let eligible = i == 0 || follows;
                 log::debug!(
                     "    {} refit {i}: value {start_value:.4e} polished to {:.4e}, ratio {r:.4} on {:.0} common rows, own rows NRMSE {:.4} (current {:.4}){}",
@@ -312,7 +323,7 @@ pub(super) fn judge(
                 let better = match &best {
                     None => true,
                     Some(b) => {
-                        let b_follows = b.1.cost <= cur.cost;
+                        let b_follows = follows_own_rows(b.1.cost, cur.cost, cur_n_eff);
                         (follows && !b_follows) || (follows == b_follows && r < b.0)
                     }
                 };
@@ -441,7 +452,7 @@ pub(super) fn judge(
                 "switched off again it keeps {:.0} % of its gain: the other parameters made it",
                 100.0 * (1.0 - own_share.max(0.0))
             ))
-        } else if fit.cost > cur.cost {
+        } else if !follows_own_rows(fit.cost, cur.cost, cur_n_eff) {
             Err(format!(
                 "its refit follows its own predictable rows to NRMSE {:.4}, worse than the current model follows its own ({:.4})",
                 fit.cost.sqrt(),
@@ -1511,6 +1522,24 @@ mod tests {
         assert!(at_floor(1e-4, 0.0, 0.0, 1e4).is_none());
         assert!(at_floor(1e-4, floor, f64::INFINITY, 1e4).is_none());
         assert!(at_floor(f64::NAN, floor, sd, 1e4).is_none());
+    }
+
+    /// [`follows_own_rows`]: a refit that follows its own rows as well as the current model
+    /// follows its own, to within the spread of a mean square, is eligible (tach_gain/65:
+    /// 0.0358 against 0.0357, about 10³ effective samples); the refits the strict rule was
+    /// written against stay out (pair/11: 1.13 against 0.185; tach_gain/28: 0.1026 against
+    /// 0.0792), as does one 5 % worse in NRMSE.
+    #[test]
+    fn a_refit_as_good_on_its_own_rows_within_their_spread_is_eligible() {
+        let ok = |a: f64, b: f64| follows_own_rows(a * a, b * b, 1000.0);
+        assert!(ok(0.0358, 0.0357));
+        assert!(ok(0.0300, 0.0357));
+        assert!(!ok(1.13, 0.185));
+        assert!(!ok(0.1026, 0.0792));
+        assert!(!ok(0.0357 * 1.05, 0.0357));
+        // Fewer samples, a wider spread; never fewer than two.
+        assert!(follows_own_rows(1.05, 1.0, 100.0));
+        assert!(!follows_own_rows(3.0, 1.0, 0.0));
     }
 
     /// [`Compared::tells_apart`], the rejoin rule of [`swap_in_class`], at tach_lag/62's
