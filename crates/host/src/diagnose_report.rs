@@ -428,58 +428,23 @@ impl Outcome {
                 }
             );
         }
-        let records = self.repeating.len();
-        let mut lines: Vec<String> = self
-            .repeating
-            .iter()
-            .enumerate()
-            .filter_map(|(i, r)| {
-                let what = if records == 1 {
-                    "the record".to_string()
-                } else {
-                    format!("record {}", i + 1)
-                };
-                repeating_line(&what, *r)
-            })
-            .collect();
+        let mut lines = per_record(&self.repeating, repeating_line);
         if self.validation_in_fit.is_none() {
             lines.extend(repeating_line(
                 "the validation record (held out)",
                 self.validation_repeating,
             ));
         }
-        if !lines.is_empty() {
-            let _ = writeln!(
-                s,
-                "residual that repeats with the command (rattle does not):"
-            );
-            for line in lines {
-                let _ = writeln!(s, "{line}");
-            }
-        }
-        let records = self.coherent.len();
-        let lines: Vec<String> = self
-            .coherent
-            .iter()
-            .enumerate()
-            .filter_map(|(i, r)| {
-                let what = if records == 1 {
-                    "the record".to_string()
-                } else {
-                    format!("record {}", i + 1)
-                };
-                coherent_line(&what, *r)
-            })
-            .collect();
-        if !lines.is_empty() {
-            let _ = writeln!(
-                s,
-                "residual coherent with the stepped sine's bursts (rattle is not):"
-            );
-            for line in lines {
-                let _ = writeln!(s, "{line}");
-            }
-        }
+        block(
+            &mut s,
+            "residual that repeats with the command (rattle does not):",
+            lines,
+        );
+        block(
+            &mut s,
+            "residual coherent with the stepped sine's bursts (rattle is not):",
+            per_record(&self.coherent, coherent_line),
+        );
         if self.residual == ResidualKind::FewWindows {
             let material = self.material_ratio;
             let plain_ratio = self.final_fit.cost.sqrt() / self.floor_nrmse;
@@ -518,6 +483,38 @@ fn repeating_json(r: Repeating) -> Value {
         "residual_rms": r.mean_square.sqrt(),
         "repeating_rms": r.repeating_mean_square.sqrt(),
     })
+}
+
+/// One summary line per record from `line` (given the record's name: "the record" when
+/// there is one, else "record N"), for the records it has a line for.
+fn per_record<T: Copy>(
+    items: &[Option<T>],
+    line: fn(&str, Option<T>) -> Option<String>,
+) -> Vec<String> {
+    items
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| {
+            let what = if items.len() == 1 {
+                "the record".to_string()
+            } else {
+                format!("record {}", i + 1)
+            };
+            line(&what, *r)
+        })
+        .collect()
+}
+
+/// Writes `title` and `lines` under it to `s`, nothing when there are no lines.
+fn block(s: &mut String, title: &str, lines: Vec<String>) {
+    use std::fmt::Write as _;
+    if lines.is_empty() {
+        return;
+    }
+    let _ = writeln!(s, "{title}");
+    for line in lines {
+        let _ = writeln!(s, "{line}");
+    }
 }
 
 /// `noise.coherent`'s entry for one record (docs/INTERFACES.md).
