@@ -377,7 +377,7 @@ pub fn diagnose_with(
         };
         let repeats = fin
             .validation_repeating
-            .is_some_and(|r| material_repeating(opts, &r));
+            .is_some_and(|r| material_part(opts, r.repeating_mean_square, r.noise_sigma));
         log::debug!(
             "validation after the fine search: NRMSE {fa:.4}, floor {ff:.4}; a material part repeats with the command: {repeats}"
         );
@@ -514,8 +514,8 @@ impl<'a> Ctx<'a> {
     /// systematic when its robust ratio `robust` ([`Ctx::robust_ratio`]) is above
     /// [`Options::material_ratio`] as well, or when on some record the part of it that
     /// repeats with a periodic command (`repeating`, one per record) is material
-    /// ([`material_repeating`]), or the part coherent with a stepped sine's bursts
-    /// (`coherent`, one per record) is ([`material_coherent`]). Only a systematic residual
+    /// ([`material_part`]), or the part coherent with a stepped sine's bursts
+    /// (`coherent`, one per record) is. Only a systematic residual
     /// can be *unexplained*: what exceeds the floor in a few windows alone, and neither
     /// comes back period after period nor follows the bursts' frequencies, is rattle the
     /// assessment did not catch.
@@ -530,12 +530,12 @@ impl<'a> Ctx<'a> {
         if !self.material(c, data) {
             ResidualKind::AtFloor
         } else if robust > self.opts.material_ratio
-            || repeating
-                .iter()
-                .any(|r| r.is_some_and(|r| material_repeating(self.opts, &r)))
-            || coherent
-                .iter()
-                .any(|r| r.is_some_and(|r| material_coherent(self.opts, &r)))
+            || repeating.iter().any(|r| {
+                r.is_some_and(|r| material_part(self.opts, r.repeating_mean_square, r.noise_sigma))
+            })
+            || coherent.iter().any(|r| {
+                r.is_some_and(|r| material_part(self.opts, r.coherent_mean_square, r.noise_sigma))
+            })
         {
             ResidualKind::Systematic
         } else {
@@ -1083,33 +1083,18 @@ fn diagnose_records(
     )
 }
 
-/// The part of a residual that repeats with the command, `r`, is material: alone it would
-/// take the NRMSE above [`Options::material_ratio`] times the floor (its mean square above
-/// (ratio² − 1) σ², σ the record's noise standard deviation).
-fn material_repeating(opts: &Options, r: &Repeating) -> bool {
-    r.repeating_mean_square > (opts.material_ratio.powi(2) - 1.0) * r.noise_sigma.powi(2)
+/// A part of a residual (the part that repeats with the command, or the part coherent with
+/// a stepped sine's bursts), of mean square `part_ms` over the record, is material: alone it
+/// would take the NRMSE above [`Options::material_ratio`] times the floor (its mean square
+/// above (ratio² − 1) σ², σ the record's noise standard deviation `sigma`).
+fn material_part(opts: &Options, part_ms: f64, sigma: f64) -> bool {
+    part_ms > (opts.material_ratio.powi(2) - 1.0) * sigma.powi(2)
 }
 
-/// Whether the coherent parts of a stepped sine's mostly coherent bursts, over the whole
-/// record, exceed what the floor's limit allows: (material_ratio² − 1) σ², as for
-/// [`material_repeating`].
-fn material_coherent(opts: &Options, c: &Coherent) -> bool {
-    c.coherent_mean_square > (opts.material_ratio.powi(2) - 1.0) * c.noise_sigma.powi(2)
-}
-
-/// The residual of `p` on every row of `d` (noise standard deviation `sigma`, as [`Ctx`]
-/// estimated it) and the part of it that repeats with the record's command
-/// ([`crate::repeat::repeating`]; `None` when the command is not periodic), with the part
-/// coherent with its sine bursts ([`crate::repeat::coherent`]; `None` without bursts).
-fn with_command(p: &ActuatorParams, d: &Data, sigma: f64) -> (Option<Repeating>, Option<Coherent>) {
-    let Some(t) = calibrate::simulate(p, d) else {
-        return (None, None);
-    };
-    let e: Vec<f64> = d.y.iter().zip(&t.y).map(|(a, b)| a - b).collect();
-    (
-        crate::repeat::repeating(&d.volts, &e, &[], d.sample_period_s, sigma),
-        crate::repeat::coherent(&d.volts, &e, d.sample_period_s, sigma),
-    )
+/// The residual of `p` on every row of `d`; `None` when the model cannot be run on it.
+fn residual_of(p: &ActuatorParams, d: &Data) -> Option<Vec<f64>> {
+    let t = calibrate::simulate(p, d)?;
+    Some(d.y.iter().zip(&t.y).map(|(a, b)| a - b).collect())
 }
 
 /// Takes the step of `r` out: reported among the candidates not added with the reason, the
@@ -1330,10 +1315,17 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
     // model lacks does.
     // Nor unless, on a stepped sine, it follows the bursts' frequencies where it is large
     // (crate::repeat::coherent): rattle is chaotic at any frequency.
+    // The noise level of each record is the one Ctx estimated.
     let (repeating, coherent): (Vec<Option<Repeating>>, Vec<Option<Coherent>>) = wdata
         .iter()
         .zip(&cx.sigma)
-        .map(|(d, &s)| with_command(&cur.params, d, s))
+        .map(|(d, &s)| match residual_of(&cur.params, d) {
+            Some(e) => (
+                crate::repeat::repeating(&d.volts, &e, &[], d.sample_period_s, s),
+                crate::repeat::coherent(&d.volts, &e, d.sample_period_s, s),
+            ),
+            None => (None, None),
+        })
         .unzip();
     let residual = cx.residual_kind(cur.cost, robust_ratio, &wdata, &repeating, &coherent);
     let unexplained = residual == ResidualKind::Systematic;
@@ -1391,10 +1383,10 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
         noise_sigma: cx.sigma.clone(),
         unpredictable_rms,
         unpredictable_spans,
-        validation_repeating: cx
-            .validation
-            .zip(cx.val_sigma)
-            .and_then(|(v, s)| with_command(&cur.params, v, s).0),
+        validation_repeating: cx.validation.zip(cx.val_sigma).and_then(|(v, s)| {
+            let e = residual_of(&cur.params, v)?;
+            crate::repeat::repeating(&v.volts, &e, &[], v.sample_period_s, s)
+        }),
         repeating,
         coherent,
         final_fit: cur,
