@@ -106,6 +106,10 @@ fn main() {
             }
             continue;
         }
+        if std::env::var("UNEXCUSE").is_ok() {
+            unexcuse(&c);
+            continue;
+        }
         if std::env::var("IDENT").is_ok() {
             witness(&c, None);
             continue;
@@ -1651,4 +1655,104 @@ pub fn tgain(c: &foreign::ForeignCase) {
         c.estimation_floor,
         c.validation_floor
     );
+}
+
+/// The bursts a diagnosis's final model weights out although its residual there is mostly
+/// coherent with the burst (the unit answers plainly), and what a polish that counts them
+/// finds: costs on the union of the model's own rows and those bursts.
+fn unexcuse(c: &foreign::ForeignCase) {
+    use geared_servo_host::repeat;
+    let out = c.diagnose(&Options::default()).unwrap();
+    let p = out.final_fit.params;
+    let knobs = out.final_fit.knobs.clone();
+    let te = eq_truth(c);
+    let mut records = vec![c.estimation.clone()];
+    if out.validation_in_fit.is_some() {
+        records.push(c.validation.clone());
+    }
+    let mut own = Vec::new();
+    let mut union = Vec::new();
+    for (i, d) in records.iter().enumerate() {
+        let (w, _) = predictability::weigh(&p, d);
+        let y = calibrate::output(&p, d).unwrap();
+        let e: Vec<f64> = d.y.iter().zip(&y).map(|(a, b)| a - b).collect();
+        let sigma = noise::sigma(&d.y);
+        let mut uw = w.weight.clone();
+        for b in repeat::burst_parts(&d.volts, &e, d.sample_period_s, sigma) {
+            let kept: f64 = w.weight[b.start..b.end].iter().sum::<f64>() / (b.end - b.start) as f64;
+            println!(
+                "  rec {i} burst {:6.1} Hz rows {}..{} kept {:.2} resid {:.2} sigma coherent share {:.2}{}",
+                b.hz,
+                b.start,
+                b.end,
+                kept,
+                b.mean_square.sqrt() / sigma,
+                b.share,
+                if b.mostly_coherent { " MOSTLY COHERENT" } else { "" }
+            );
+            if b.mostly_coherent && kept < 0.5 {
+                // Can the model itself reach the unit's response there: from another rest
+                // position in the gap, or with its parameters moved a little?
+                let delta = p.derived().unwrap().delta_rad as f32;
+                let settle = (0.1 / d.sample_period_s) as usize;
+                let ms_of = |yy: &[f64]| {
+                    let r = (b.start + settle)..b.end;
+                    r.clone().map(|k| (d.y[k] - yy[k]).powi(2)).sum::<f64>() / r.len() as f64
+                };
+                let base = ms_of(&y);
+                let mut line = String::new();
+                for j in 0..9 {
+                    let x0 = -delta + j as f32 * delta / 4.0;
+                    let yy = calibrate::output_with(&p, d, |k, st| {
+                        if k == b.start {
+                            st.twist_rad = x0;
+                        }
+                    })
+                    .unwrap();
+                    line += &format!(" {:.2}", ms_of(&yy) / base);
+                }
+                line += " | members";
+                for s in [predictability::Settings::default(), predictability::WIDE] {
+                    for m in 0..4 {
+                        let q = predictability::member(&p, m, &s);
+                        let yy = calibrate::output(&q, d).unwrap();
+                        line += &format!(" {:.2}", ms_of(&yy) / base);
+                    }
+                }
+                let yt = calibrate::output(&te, d).unwrap();
+                println!(
+                    "     restarts (ms / the model's):{line} | truth {:.2}",
+                    ms_of(&yt) / base
+                );
+                for x in &mut uw[b.start..b.end] {
+                    *x = 1.0;
+                }
+            }
+        }
+        own.push(w.clone());
+        union.push(d.with_weights(&uw));
+    }
+    let q = calibrate::polish(&p, &knobs, &union, 20).params;
+    let own_q: Vec<_> = records
+        .iter()
+        .map(|d| predictability::weigh(&q, d).0)
+        .collect();
+    let own_t: Vec<_> = records
+        .iter()
+        .map(|d| predictability::weigh(&te, d).0)
+        .collect();
+    let r = |x: f64| x.sqrt();
+    println!(
+        "== {} final {} | union: final {:.4} polished {:.4} truth {:.4} | own rows: final {:.4} polished {:.4} (kept {:.2}) truth {:.4}",
+        c.label(),
+        fmt(&te, &p),
+        r(calibrate::cost(&p, &union)),
+        r(calibrate::cost(&q, &union)),
+        r(calibrate::cost(&te, &union)),
+        r(calibrate::cost(&p, &own)),
+        r(calibrate::cost(&q, &own_q)),
+        1.0 - own_q[0].excluded_share(),
+        r(calibrate::cost(&te, &own_t)),
+    );
+    println!("   polished {}", fmt(&te, &q));
 }

@@ -456,13 +456,25 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
             ),
             None => "-".into(),
         };
+        // Per record: the bursts mostly coherent / those the model reaches from another rest
+        // position of the gears, and the coherent part's RMS over the noise.
+        let coh = |c: &Option<geared_servo_host::repeat::Coherent>| match c {
+            Some(c) => format!(
+                "{}/{} bursts {:.2} sigma",
+                c.coherent_bursts,
+                c.other_response_bursts,
+                c.coherent_mean_square.sqrt() / c.noise_sigma
+            ),
+            None => "-".into(),
+        };
         eprintln!(
-            "    residual {} (robust x{:.2}); validation in fit {}; residual/repeating per record {:?}, held-out validation {}",
+            "    residual {} (robust x{:.2}); validation in fit {}; residual/repeating per record {:?}, held-out validation {}; coherent/other response {:?}",
             out.residual.name(),
             out.robust_floor_ratio,
             out.validation_in_fit.is_some(),
             out.repeating.iter().map(rep).collect::<Vec<_>>(),
-            rep(&out.validation_repeating)
+            rep(&out.validation_repeating),
+            out.coherent.iter().map(coh).collect::<Vec<_>>()
         );
         if !right || !values_ok || !nrmse_ok {
             eprintln!(

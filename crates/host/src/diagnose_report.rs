@@ -528,6 +528,7 @@ fn coherent_json(c: Coherent) -> Value {
         "worst_hz": if c.worst_hz.is_finite() { json!(c.worst_hz) } else { Value::Null },
         "worst_rms": c.worst_rms,
         "worst_share": c.worst_share,
+        "other_response_bursts": c.other_response_bursts,
     })
 }
 
@@ -545,8 +546,14 @@ fn coherent_line(what: &str, c: Option<Coherent>) -> Option<String> {
     } else {
         String::new()
     };
+    let other = match c.other_response_bursts {
+        0 => String::new(),
+        k => format!(
+            "; {k} more mostly coherent where the model reaches the unit's response from another rest position of the gears (the other of two coexisting responses, not counted)"
+        ),
+    };
     Some(format!(
-        "  {what}: {} sine bursts, {} of them mostly coherent (a deterministic response the model lacks), their coherent part RMS {:.4} over the record (noise {:.4}){worst}",
+        "  {what}: {} sine bursts, {} of them mostly coherent (a deterministic response the model lacks), their coherent part RMS {:.4} over the record (noise {:.4}){worst}{other}",
         c.bursts,
         c.coherent_bursts,
         c.coherent_mean_square.sqrt(),

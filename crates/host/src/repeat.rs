@@ -174,8 +174,13 @@ pub struct Coherent {
     pub bursts: usize,
     /// Of them, those whose coherent part is the majority of their residual above the noise
     /// ([`COHERENT_MAJORITY`]) and at least the noise's mean square (a response the noise
-    /// does not hide).
+    /// does not hide), less those the model reaches from another rest position of the gears
+    /// ([`BurstPart::other_response`]).
     pub coherent_bursts: usize,
+    /// Mostly coherent bursts whose response the model reaches from another rest position of
+    /// the gears in the gap: the other of two coexisting responses (counted apart, left out
+    /// of the coherent part and of the worst burst).
+    pub other_response_bursts: usize,
     /// The record's noise standard deviation, in the output's unit (given).
     pub noise_sigma: f64,
     /// Mean square of the residual over every row, in the output's unit squared.
@@ -304,48 +309,113 @@ fn harmonic_fit(x: &[f64], f: f64, h: f64, harmonics: usize) -> ((f64, usize), f
 
 /// The part of the residual `e` (measured less modelled, one per row, every row) of a
 /// record whose command `volts`, sampled every `h` seconds, is a stepped sine, that is
-/// coherent with each burst: its fit by the burst's frequency and [`HARMONICS`] harmonics,
-/// less what a residual without such a part leaves in that fit (the columns' share of the
-/// burst's mean square). Rattle is chaotic and a response the model lacks is not; see
-/// [`COHERENT_MAJORITY`]. `sigma` is the record's noise standard deviation. `None` when the
-/// command has no sine bursts.
+/// coherent with each burst ([`burst_parts`]). Rattle is chaotic and a response the model
+/// lacks is not; see [`COHERENT_MAJORITY`]. `sigma` is the record's noise standard
+/// deviation. `None` when the command has no sine bursts.
 pub fn coherent(volts: &[f64], e: &[f64], h: f64, sigma: f64) -> Option<Coherent> {
-    let bursts = sine_bursts(volts, h);
-    if bursts.is_empty() || e.is_empty() {
-        return None;
-    }
-    let n_all = e.len() as f64;
-    let mut out = Coherent {
-        bursts: bursts.len(),
-        coherent_bursts: 0,
-        noise_sigma: sigma,
-        mean_square: e.iter().map(|x| x * x).sum::<f64>() / n_all,
-        coherent_mean_square: 0.0,
-        worst_hz: f64::NAN,
-        worst_rms: 0.0,
-        worst_share: 0.0,
-    };
-    for (a, b, f) in bursts {
-        let Some(r) = e.get(a..b.min(e.len())) else {
-            continue;
+    Coherent::of(&burst_parts(volts, e, h, sigma), e, sigma)
+}
+
+impl Coherent {
+    /// The record's summary of its bursts' `parts` ([`burst_parts`] of the residual `e`, every
+    /// row, with the record's noise standard deviation `sigma`); `None` without bursts.
+    pub fn of(parts: &[BurstPart], e: &[f64], sigma: f64) -> Option<Coherent> {
+        if parts.is_empty() || e.is_empty() {
+            return None;
+        }
+        let n_all = e.len() as f64;
+        let mut out = Coherent {
+            bursts: parts.len(),
+            coherent_bursts: 0,
+            other_response_bursts: 0,
+            noise_sigma: sigma,
+            mean_square: e.iter().map(|x| x * x).sum::<f64>() / n_all,
+            coherent_mean_square: 0.0,
+            worst_hz: f64::NAN,
+            worst_rms: 0.0,
+            worst_share: 0.0,
         };
-        let n = r.len() as f64;
-        if n < 16.0 {
-            continue;
+        for b in parts {
+            let c = b.coherent_mean_square;
+            if b.other_response {
+                out.other_response_bursts += 1;
+                continue;
+            }
+            if c > out.worst_rms.powi(2) {
+                (out.worst_hz, out.worst_rms, out.worst_share) = (b.hz, c.sqrt(), b.share);
+            }
+            if b.mostly_coherent {
+                out.coherent_bursts += 1;
+                out.coherent_mean_square += c * (b.end - b.start) as f64 / n_all;
+            }
         }
-        let ms = r.iter().map(|x| x * x).sum::<f64>() / n;
-        let ((fitted, cols), _) = harmonic_fit(r, f, h, HARMONICS);
-        let c = (fitted - cols as f64 * ms / n).max(0.0);
-        let share = c / (ms - sigma * sigma).max(f64::MIN_POSITIVE);
-        if c > out.worst_rms.powi(2) {
-            (out.worst_hz, out.worst_rms, out.worst_share) = (f, c.sqrt(), share);
-        }
-        if share >= COHERENT_MAJORITY && c >= sigma * sigma {
-            out.coherent_bursts += 1;
-            out.coherent_mean_square += c * n / n_all;
-        }
+        Some(out)
     }
-    Some(out)
+}
+
+/// One sine burst's residual and its part coherent with the burst ([`burst_parts`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BurstPart {
+    /// First row of the burst.
+    pub start: usize,
+    /// One past its last row.
+    pub end: usize,
+    /// The burst's frequency, Hz.
+    pub hz: f64,
+    /// The residual's mean square over the burst, in the output's unit squared.
+    pub mean_square: f64,
+    /// Its coherent part's mean square over the burst (unbiased), in the output's unit
+    /// squared.
+    pub coherent_mean_square: f64,
+    /// The coherent part's share of the burst's residual above the noise (at most 1).
+    pub share: f64,
+    /// The coherent part is the majority of the residual above the noise
+    /// ([`COHERENT_MAJORITY`]) and at least the noise's mean square: a deterministic
+    /// response the model lacks, unless it is one the model has ([`Self::other_response`]).
+    pub mostly_coherent: bool,
+    /// The model reaches the unit's response over this burst from another rest position of
+    /// the gears in the gap (`predictability::restart_reaches`): the other of two
+    /// coexisting responses, not one the model lacks. Set by the caller, who has the model.
+    pub other_response: bool,
+}
+
+/// Each sine burst of `volts` ([`sine_bursts`]) with the part of the residual `e` coherent
+/// with it: its fit by the burst's frequency and [`HARMONICS`] harmonics, less what a
+/// residual without such a part leaves in that fit (the columns' share of the burst's mean
+/// square). `sigma` is the record's noise standard deviation. Bursts of fewer than 16 rows
+/// inside `e` are left out.
+pub fn burst_parts(volts: &[f64], e: &[f64], h: f64, sigma: f64) -> Vec<BurstPart> {
+    sine_bursts(volts, h)
+        .into_iter()
+        .filter_map(|(a, b, f)| {
+            let end = b.min(e.len());
+            let r = e.get(a..end)?;
+            let n = r.len() as f64;
+            if n < 16.0 {
+                return None;
+            }
+            let ms = r.iter().map(|x| x * x).sum::<f64>() / n;
+            let ((fitted, cols), _) = harmonic_fit(r, f, h, HARMONICS);
+            let c = (fitted - cols as f64 * ms / n).max(0.0);
+            // At most 1: a residual at the noise level leaves an excess of the order of
+            // the estimate's own error, and the share then says nothing.
+            let share = if c > 0.0 {
+                c / (ms - sigma * sigma).max(c)
+            } else {
+                0.0
+            };
+            Some(BurstPart {
+                start: a,
+                end,
+                hz: f,
+                mean_square: ms,
+                coherent_mean_square: c,
+                share,
+                mostly_coherent: share >= COHERENT_MAJORITY && c >= sigma * sigma,
+                other_response: false,
+            })
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -570,5 +640,25 @@ mod tests {
             (r.coherent_mean_square / truth - 1.0).abs() < 0.1,
             "{r:?} against {truth}"
         );
+        // The same burst marked as one the model reaches from another rest position of the
+        // gears (the other of two coexisting responses): counted apart, its coherent part
+        // left out.
+        let mut parts = burst_parts(&v, &mode, h, sigma);
+        assert_eq!(parts.iter().filter(|b| b.mostly_coherent).count(), 1);
+        assert!(
+            parts.iter().all(|b| (0.0..=1.0).contains(&b.share)),
+            "{parts:?}"
+        );
+        for b in parts.iter_mut().filter(|b| b.mostly_coherent) {
+            b.other_response = true;
+        }
+        let r = Coherent::of(&parts, &mode, sigma).unwrap();
+        assert_eq!(
+            (r.coherent_bursts, r.other_response_bursts),
+            (0, 1),
+            "{r:?}"
+        );
+        assert_eq!(r.coherent_mean_square, 0.0, "{r:?}");
+        assert!(r.worst_rms < 0.5 * sigma, "{r:?}");
     }
 }

@@ -1083,6 +1083,33 @@ fn diagnose_records(
     )
 }
 
+/// The sine bursts of record `d` with the parts of the residual `e` of `p` coherent with
+/// them ([`crate::repeat::burst_parts`], noise standard deviation `sigma`), each mostly
+/// coherent burst marked when `p` reaches the unit's response there from another rest
+/// position of the gears ([`predictability::restart_reaches`]).
+fn coherent_parts(
+    p: &ActuatorParams,
+    d: &Data,
+    e: &[f64],
+    sigma: f64,
+) -> Vec<crate::repeat::BurstPart> {
+    let mut parts = crate::repeat::burst_parts(&d.volts, e, d.sample_period_s, sigma);
+    let flagged: Vec<usize> = (0..parts.len())
+        .filter(|&i| parts.get(i).is_some_and(|b| b.mostly_coherent))
+        .collect();
+    let spans: Vec<(usize, usize)> = flagged
+        .iter()
+        .filter_map(|&i| parts.get(i).map(|b| (b.start, b.end)))
+        .collect();
+    let reached = predictability::restart_reaches(p, d, &spans, sigma);
+    for (i, r) in flagged.into_iter().zip(reached) {
+        if let Some(b) = parts.get_mut(i) {
+            b.other_response = r;
+        }
+    }
+    parts
+}
+
 /// A part of a residual (the part that repeats with the command, or the part coherent with
 /// a stepped sine's bursts), of mean square `part_ms` over the record, is material: alone it
 /// would take the NRMSE above [`Options::material_ratio`] times the floor (its mean square
@@ -1314,7 +1341,9 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
     // period of a periodic command (crate::repeat): rattle does not repeat, a response the
     // model lacks does.
     // Nor unless, on a stepped sine, it follows the bursts' frequencies where it is large
-    // (crate::repeat::coherent): rattle is chaotic at any frequency.
+    // (crate::repeat::coherent): rattle is chaotic at any frequency — unless the model
+    // reaches the unit's response there from another rest position of the gears
+    // (coherent_parts): the other of two coexisting responses.
     // The noise level of each record is the one Ctx estimated.
     let (repeating, coherent): (Vec<Option<Repeating>>, Vec<Option<Coherent>>) = wdata
         .iter()
@@ -1322,7 +1351,7 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
         .map(|(d, &s)| match residual_of(&cur.params, d) {
             Some(e) => (
                 crate::repeat::repeating(&d.volts, &e, &[], d.sample_period_s, s),
-                crate::repeat::coherent(&d.volts, &e, d.sample_period_s, s),
+                Coherent::of(&coherent_parts(&cur.params, d, &e, s), &e, s),
             ),
             None => (None, None),
         })
@@ -1651,6 +1680,7 @@ mod tests {
                 Some(Coherent {
                     bursts: 20,
                     coherent_bursts: 1,
+                    other_response_bursts: 0,
                     noise_sigma: sigma,
                     mean_square: 3.0 * sigma * sigma,
                     coherent_mean_square: share_of_limit * 0.44 * sigma * sigma,
