@@ -210,8 +210,24 @@ pub fn assess_restarts(p: &ActuatorParams, d: &Data) -> Vec<f64> {
 /// one flank (−δ) to the other (+δ), a quarter of the half gap apart.
 pub const RESTART_POSITIONS: usize = 9;
 
-/// For each burst of `d` as (first row, one past the last row), whether the model `p`
-/// reaches the measured response there from another rest position of the gears in the gap
+/// The model `p`'s output over `d` with the gears moved at each row of `starts` (sorted):
+/// the twist `x` there replaced by `place(x)`. `None` when the model cannot be run.
+fn restarted(
+    p: &ActuatorParams,
+    d: &Data,
+    starts: &[usize],
+    place: impl Fn(f32) -> f32,
+) -> Option<Vec<f64>> {
+    calibrate::output_with(p, d, |k, st| {
+        if starts.binary_search(&k).is_ok() {
+            st.twist_rad = place(st.twist_rad);
+        }
+    })
+}
+
+/// For each burst of `d` as (first row, one past the last row), whether the model `p`, whose
+/// residual over `d` (measured less modelled, every row) is `e`, reaches the measured
+/// response there from another rest position of the gears in the gap
 /// ([`RESTART_POSITIONS`], one run each with every burst so restarted): whether one of the
 /// runs takes away the majority ([`crate::repeat::COHERENT_MAJORITY`]) of the burst's
 /// residual above the noise (`sigma`, the record's noise standard deviation), compared from
@@ -225,6 +241,7 @@ pub const RESTART_POSITIONS: usize = 9;
 pub fn restart_reaches(
     p: &ActuatorParams,
     d: &Data,
+    e: &[f64],
     bursts: &[(usize, usize)],
     sigma: f64,
 ) -> Vec<bool> {
@@ -236,40 +253,36 @@ pub fn restart_reaches(
         return none;
     }
     let settle = (RESTART_SETTLE_S / d.sample_period_s).round() as usize;
-    let excess = |yy: &[f64], (a, b): (usize, usize)| -> Option<f64> {
-        let (lo, hi) = (a + settle, b.min(yy.len()).min(d.y.len()));
-        let (m, y) = (yy.get(lo..hi)?, d.y.get(lo..hi)?);
-        if m.is_empty() {
+    // The mean square of `r(k)` over a burst from `settle` rows after its start, less the
+    // noise's.
+    let excess = |(a, b): (usize, usize), r: &dyn Fn(usize) -> Option<f64>| -> Option<f64> {
+        let rows = (a + settle)..b.min(d.y.len()).min(e.len());
+        if rows.is_empty() {
             return None;
         }
-        let ms = m.iter().zip(y).map(|(a, b)| (b - a).powi(2)).sum::<f64>() / m.len() as f64;
+        let n = rows.len() as f64;
+        let ms = rows.map(|k| r(k).map(|x| x * x)).sum::<Option<f64>>()? / n;
         Some(ms - sigma * sigma)
     };
-    let Some(center) = calibrate::output(p, d) else {
-        return none;
-    };
-    let starts: Vec<usize> = bursts.iter().map(|b| b.0).collect();
-    let runs: Vec<Option<Vec<f64>>> = (0..RESTART_POSITIONS)
+    let mut starts: Vec<usize> = bursts.iter().map(|b| b.0).collect();
+    starts.sort_unstable();
+    let runs: Vec<Vec<f64>> = (0..RESTART_POSITIONS)
         .into_par_iter()
-        .map(|j| {
+        .filter_map(|j| {
             let x = -delta + 2.0 * delta * j as f32 / (RESTART_POSITIONS - 1) as f32;
-            calibrate::output_with(p, d, |k, st| {
-                if starts.contains(&k) {
-                    st.twist_rad = x;
-                }
-            })
+            restarted(p, d, &starts, |_| x)
         })
         .collect();
     let keep = 1.0 - crate::repeat::COHERENT_MAJORITY;
     bursts
         .iter()
         .map(|&b| {
-            let Some(own) = excess(&center, b).filter(|e| *e > 0.0) else {
+            let Some(own) = excess(b, &|k| e.get(k).copied()).filter(|x| *x > 0.0) else {
                 return false;
             };
-            runs.iter()
-                .flatten()
-                .any(|r| excess(r, b).is_some_and(|e| e <= keep * own))
+            runs.iter().any(|r| {
+                excess(b, &|k| Some(d.y.get(k)? - r.get(k)?)).is_some_and(|x| x <= keep * own)
+            })
         })
         .collect()
 }
@@ -286,16 +299,13 @@ fn restarts_around(p: &ActuatorParams, d: &Data, center: &[f64]) -> Vec<f64> {
         return weight;
     }
     let kicks: Vec<usize> = starts.iter().map(|s| s.0).collect();
-    let moved = calibrate::output_with(p, d, |k, st| {
-        if kicks.binary_search(&k).is_ok() {
-            let x = st.twist_rad;
-            st.twist_rad = if x.abs() > 0.25 * delta {
-                -x.clamp(-delta, delta)
-            } else if x >= 0.0 {
-                x - 0.5 * delta
-            } else {
-                x + 0.5 * delta
-            };
+    let moved = restarted(p, d, &kicks, |x| {
+        if x.abs() > 0.25 * delta {
+            -x.clamp(-delta, delta)
+        } else if x >= 0.0 {
+            x - 0.5 * delta
+        } else {
+            x + 0.5 * delta
         }
     });
     let Some(moved) = moved else {
@@ -818,12 +828,16 @@ mesh_damping = 5.9344e-3
             rms(&own, bursts[0])
         );
         let sigma = 1e-3 * a;
-        assert_eq!(restart_reaches(&p, &d, &bursts, sigma), vec![true, false]);
+        let e: Vec<f64> = d.y.iter().zip(&own).map(|(y, m)| y - m).collect();
+        assert_eq!(
+            restart_reaches(&p, &d, &e, &bursts, sigma),
+            vec![true, false]
+        );
         // A model that cannot be run reaches nothing.
         let mut broken = p;
         broken.load.inertia_kg_m2 = -1.0;
         assert_eq!(
-            restart_reaches(&broken, &d, &bursts, sigma),
+            restart_reaches(&broken, &d, &e, &bursts, sigma),
             vec![false, false]
         );
     }

@@ -417,6 +417,16 @@ pub(super) fn judge(
         })
         .collect();
     let mut judged: Vec<Judged> = Vec::new();
+    // The current model's run over the records, costed on each candidate's own rows
+    // (`calibrate::cost_of`: one simulation for all of them).
+    let cur_run: Vec<Option<Vec<f64>>> = cx
+        .data
+        .iter()
+        .map(|d| calibrate::output(&cur.params, d))
+        .collect();
+    let cost_on = |run: &[Option<Vec<f64>>], p: &ActuatorParams, data: &[Data]| {
+        calibrate::cost_of(run, data).unwrap_or_else(|| calibrate::cost(p, data))
+    };
     for (r, best) in local.into_iter().zip(chosen_alts) {
         let e = r.effect;
         let Some(k) = r.knobs.last() else {
@@ -464,10 +474,15 @@ pub(super) fn judge(
             calibrate::set(&mut q, k.param, calibrate::get(&cur.params, k.param));
             q
         };
-        let ablated_c = calibrate::cost(&ablated, &common);
+        let ablated_run: Vec<Option<Vec<f64>>> = cx
+            .data
+            .iter()
+            .map(|d| calibrate::output(&ablated, d))
+            .collect();
+        let ablated_c = cost_on(&ablated_run, &ablated, &common);
         let (ablated_own, cur_own) = (
-            calibrate::cost(&ablated, &own),
-            calibrate::cost(&cur.params, &own),
+            cost_on(&ablated_run, &ablated, &own),
+            cost_on(&cur_run, &cur.params, &own),
         );
         let own_share = gain_share((ablated_c, fit_c, cur_c), (ablated_own, fit.cost, cur_own));
         log::debug!(

@@ -1094,18 +1094,14 @@ fn coherent_parts(
     sigma: f64,
 ) -> Vec<crate::repeat::BurstPart> {
     let mut parts = crate::repeat::burst_parts(&d.volts, e, d.sample_period_s, sigma);
-    let flagged: Vec<usize> = (0..parts.len())
-        .filter(|&i| parts.get(i).is_some_and(|b| b.mostly_coherent))
-        .collect();
-    let spans: Vec<(usize, usize)> = flagged
+    let spans: Vec<(usize, usize)> = parts
         .iter()
-        .filter_map(|&i| parts.get(i).map(|b| (b.start, b.end)))
+        .filter(|b| b.mostly_coherent)
+        .map(|b| (b.start, b.end))
         .collect();
-    let reached = predictability::restart_reaches(p, d, &spans, sigma);
-    for (i, r) in flagged.into_iter().zip(reached) {
-        if let Some(b) = parts.get_mut(i) {
-            b.other_response = r;
-        }
+    let reached = predictability::restart_reaches(p, d, e, &spans, sigma);
+    for (b, r) in parts.iter_mut().filter(|b| b.mostly_coherent).zip(reached) {
+        b.other_response = r;
     }
     parts
 }
