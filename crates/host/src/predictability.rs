@@ -253,36 +253,35 @@ pub fn restart_reaches(
         return none;
     }
     let settle = (RESTART_SETTLE_S / d.sample_period_s).round() as usize;
-    // The mean square of `r(k)` over a burst from `settle` rows after its start, less the
-    // noise's.
-    let excess = |(a, b): (usize, usize), r: &dyn Fn(usize) -> Option<f64>| -> Option<f64> {
-        let rows = (a + settle)..b.min(d.y.len()).min(e.len());
-        if rows.is_empty() {
+    // The mean square of a residual `r` over a burst from `settle` rows after its start,
+    // less the noise's.
+    let excess = |r: &[f64], (a, b): (usize, usize)| -> Option<f64> {
+        let m = r.get(a + settle..b.min(r.len()))?;
+        if m.is_empty() {
             return None;
         }
-        let n = rows.len() as f64;
-        let ms = rows.map(|k| r(k).map(|x| x * x)).sum::<Option<f64>>()? / n;
-        Some(ms - sigma * sigma)
+        Some(m.iter().map(|x| x * x).sum::<f64>() / m.len() as f64 - sigma * sigma)
     };
     let mut starts: Vec<usize> = bursts.iter().map(|b| b.0).collect();
     starts.sort_unstable();
+    // The residual of each restarted run.
     let runs: Vec<Vec<f64>> = (0..RESTART_POSITIONS)
         .into_par_iter()
         .filter_map(|j| {
             let x = -delta + 2.0 * delta * j as f32 / (RESTART_POSITIONS - 1) as f32;
-            restarted(p, d, &starts, |_| x)
+            let run = restarted(p, d, &starts, |_| x)?;
+            Some(d.y.iter().zip(&run).map(|(y, m)| y - m).collect())
         })
         .collect();
     let keep = 1.0 - crate::repeat::COHERENT_MAJORITY;
     bursts
         .iter()
         .map(|&b| {
-            let Some(own) = excess(b, &|k| e.get(k).copied()).filter(|x| *x > 0.0) else {
+            let Some(own) = excess(e, b).filter(|x| *x > 0.0) else {
                 return false;
             };
-            runs.iter().any(|r| {
-                excess(b, &|k| Some(d.y.get(k)? - r.get(k)?)).is_some_and(|x| x <= keep * own)
-            })
+            runs.iter()
+                .any(|r| excess(r, b).is_some_and(|x| x <= keep * own))
         })
         .collect()
 }

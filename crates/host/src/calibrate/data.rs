@@ -350,6 +350,12 @@ pub fn output(p: &ActuatorParams, d: &Data) -> Option<Vec<f64>> {
     output_with(p, d, |_, _| {})
 }
 
+/// [`output`] over each record of `data`: one run of the model per record, to cost on any
+/// weighting of the same records ([`cost_of`]).
+pub fn outputs(p: &ActuatorParams, data: &[Data]) -> Vec<Option<Vec<f64>>> {
+    data.iter().map(|d| output(p, d)).collect()
+}
+
 /// [`output`] with [`simulate_with`]'s hook.
 pub fn output_with(
     p: &ActuatorParams,
@@ -494,8 +500,7 @@ pub fn cost(p: &ActuatorParams, data: &[Data]) -> f64 {
     if data.iter().any(|d| d.robust.is_some()) {
         return residuals(p, data).norm_squared();
     }
-    let outputs: Vec<Option<Vec<f64>>> = data.iter().map(|d| output(p, d)).collect();
-    cost_of(&outputs, data).unwrap_or(f64::INFINITY)
+    cost_of(&outputs(p, data), data).unwrap_or(f64::INFINITY)
 }
 
 /// The records with the robust window loss ([`Robust`]), each at its own noise level

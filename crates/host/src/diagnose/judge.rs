@@ -145,6 +145,9 @@ pub(super) struct Judged {
     /// The candidate's refit with the effect switched back to the current model's value:
     /// a point of the model without it.
     ablated: ActuatorParams,
+    /// Its output over the records' inputs ([`calibrate::outputs`]), to cost on any
+    /// candidate's rows without running it again.
+    ablated_run: Vec<Option<Vec<f64>>>,
     /// Its value lies within the background range (rejected as such).
     within_background: bool,
     /// Those rows.
@@ -419,11 +422,7 @@ pub(super) fn judge(
     let mut judged: Vec<Judged> = Vec::new();
     // The current model's run over the records, costed on each candidate's own rows
     // (`calibrate::cost_of`: one simulation for all of them).
-    let cur_run: Vec<Option<Vec<f64>>> = cx
-        .data
-        .iter()
-        .map(|d| calibrate::output(&cur.params, d))
-        .collect();
+    let cur_run = calibrate::outputs(&cur.params, cx.data);
     let cost_on = |run: &[Option<Vec<f64>>], p: &ActuatorParams, data: &[Data]| {
         calibrate::cost_of(run, data).unwrap_or_else(|| calibrate::cost(p, data))
     };
@@ -474,11 +473,7 @@ pub(super) fn judge(
             calibrate::set(&mut q, k.param, calibrate::get(&cur.params, k.param));
             q
         };
-        let ablated_run: Vec<Option<Vec<f64>>> = cx
-            .data
-            .iter()
-            .map(|d| calibrate::output(&ablated, d))
-            .collect();
+        let ablated_run = calibrate::outputs(&ablated, cx.data);
         let ablated_c = cost_on(&ablated_run, &ablated, &common);
         let (ablated_own, cur_own) = (
             cost_on(&ablated_run, &ablated, &own),
@@ -528,6 +523,7 @@ pub(super) fn judge(
             floor_c,
             floor_sd,
             ablated,
+            ablated_run,
             within_background: within_background == Some(true),
             common,
             own,
@@ -555,27 +551,14 @@ pub(super) fn judge(
     // own candidate's rows: it may still be the better point on another candidate's rows
     // (tach_gain/10 again: taking only the ablations that improved on their own rows
     // let a 60 mV dead band in before the gain). Each point is run once over the records
-    // and costed on every candidate's rows from that run (N runs, not N²).
-    let runs: Vec<Vec<Option<Vec<f64>>>> = judged
-        .par_iter()
-        .map(|j| {
-            cx.data
-                .iter()
-                .map(|d| calibrate::output(&j.ablated, d))
-                .collect()
-        })
-        .collect();
+    // and costed on every candidate's rows from that run (N runs, not N²): the run its
+    // ablation test above made.
     let nulls: Vec<f64> = judged
         .par_iter()
         .map(|j| {
             judged
                 .iter()
-                .zip(&runs)
-                .map(|(q, run)| {
-                    calibrate::cost_of(run, &j.common)
-                        .unwrap_or_else(|| calibrate::cost(&q.ablated, &j.common))
-                        / j.cur_c
-                })
+                .map(|q| cost_on(&q.ablated_run, &q.ablated, &j.common) / j.cur_c)
                 .filter(|r| r.is_finite())
                 .fold(1.0_f64, f64::min)
         })
@@ -1780,6 +1763,7 @@ mod tests {
                 floor_c: 0.0,
                 floor_sd: 0.0,
                 ablated: without,
+                ablated_run: calibrate::outputs(&without, rows),
                 within_background: false,
                 common: rows.to_vec(),
                 own: rows.to_vec(),
