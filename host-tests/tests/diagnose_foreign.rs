@@ -649,6 +649,7 @@ fn the_unit_in_the_files_constants_is_exact() {
         weight: vec![1.0; n],
         norm: 1.0,
         robust: None,
+        extra: Vec::new(),
     };
     for draw in [0, 4] {
         let mut truth = foreign::true_unit(draw).unwrap();

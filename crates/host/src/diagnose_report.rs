@@ -138,6 +138,7 @@ impl Outcome {
             "noise",
             json!({"sigma": self.noise_sigma, "floor_nrmse": self.floor_nrmse, "robust_floor_ratio": self.robust_floor_ratio, "residual": self.residual.name()}),
         );
+        insert(&mut v, "fitted_outputs", json!(self.fitted_outputs));
         if let Some(n) = v.get_mut("noise") {
             insert(
                 n,
@@ -275,6 +276,19 @@ impl Outcome {
                 .join(", "),
             shares.join(", ")
         );
+        if self.fitted_outputs.iter().any(|o| o.len() > 1) {
+            let per: Vec<String> = self
+                .fitted_outputs
+                .iter()
+                .enumerate()
+                .map(|(i, o)| format!("record {}: {}", i + 1, o.join(", ")))
+                .collect();
+            let _ = writeln!(
+                s,
+                "fitted outputs:         {} (each further output in units of its own floor, scaled to the first's noise; an angle over each predictable span with its offset free: a fit's or an effect's NRMSE below is of them all together, in the first output's unit)",
+                per.join("; ")
+            );
+        }
         if let Some((a, m)) = self.unpredictable_rms {
             let _ = writeln!(
                 s,
@@ -447,7 +461,7 @@ impl Outcome {
         );
         if self.residual == ResidualKind::FewWindows {
             let material = self.material_ratio;
-            let plain_ratio = self.final_fit.cost.sqrt() / self.floor_nrmse;
+            let plain_ratio = (self.final_fit.cost / self.floor_cost).sqrt();
             let _ = writeln!(
                 s,
                 "residual above the floor in a few windows only: NRMSE {:.2}x the floor, {:.2}x under the robust window loss (at most {material}x): not spread over the record, so not claimed as a missing effect; most likely spans where the unit rattles on another response than the model (see time.svg)",

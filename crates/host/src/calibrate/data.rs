@@ -30,6 +30,85 @@ pub struct Data {
     pub norm: f64,
     /// Robust window loss for the search ([`Robust`]); `None`: plain least squares.
     pub robust: Option<Robust>,
+    /// The record's other measured outputs, fitted beside the first ([`Channel`]).
+    pub extra: Vec<Channel>,
+}
+
+/// A further measured output of a record, fitted beside the first (`Data::y`) on the same
+/// rows and weights, each in units of its own floor.
+///
+/// One run of the model gives every output of a row, so a further output costs no
+/// simulation. Its residual enters the fit scaled by `scale` = σ₁ / floor (σ₁ the first
+/// output's noise level, [`crate::noise::sigma`]): a row of it at its floor weighs what a
+/// row of the first output at its noise does, and the first output's NRMSE² stays the
+/// unit of the cost. The floor is what even the right model cannot get below
+/// ([`Channel::floor_of`]): the output's noise and resolution and, for the load angle,
+/// where in the gap the load sits — a load angle is known to the model only to within the
+/// backlash wherever the gears have parted (held-out gravity_torque/69 of the foreign
+/// suite: the emulator at the truth follows the reference's angle to 8e-4 of its spread,
+/// on a gap of 0.05° over a swing of −17° to +39°), so a weight of 1/noise² alone would let
+/// that disagreement outweigh the tachometer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Channel {
+    /// Output column name ([`crate::record::OUTPUT_COLUMNS`]).
+    pub output: String,
+    /// Measured output, one per row, in the column's unit.
+    pub y: Vec<f64>,
+    /// Its noise level from the record, with its resolution (a quantised output's step
+    /// q adds q/√12), in the column's unit.
+    pub noise: f64,
+    /// Its floor, in the column's unit ([`Channel::floor_of`]).
+    pub floor: f64,
+    /// σ₁ / floor: brings a residual of this output into the first output's unit at its
+    /// noise level.
+    pub scale: f64,
+}
+
+impl Channel {
+    /// The floor of an output of noise (and resolution) `noise` for a model with total
+    /// backlash `backlash_deg` at the load: √(noise² + b²/12) for the load angle (in
+    /// degrees: where in a gap of b the load sits is uniform at worst), `noise` for every
+    /// other output.
+    pub fn floor_of(output: &str, noise: f64, backlash_deg: f64) -> f64 {
+        // The angle columns are in degrees (`crate::simulate::COLUMNS`).
+        let angle = column(output).is_some_and(|c| c.quantity == Quantity::Angle);
+        let gap = if angle && backlash_deg.is_finite() {
+            backlash_deg.abs()
+        } else {
+            0.0
+        };
+        (noise * noise + gap * gap / 12.0).sqrt()
+    }
+}
+
+/// The step of a quantised output (an encoder's count): the smallest change between
+/// consecutive samples, when at least 90 % of the changes are whole multiples of it (to
+/// 1 %); 0 for an output that is not quantised.
+pub fn resolution(y: &[f64]) -> f64 {
+    let steps: Vec<f64> = y
+        .windows(2)
+        .map(|w| match w {
+            [a, b] => (b - a).abs(),
+            _ => 0.0,
+        })
+        .filter(|d| *d > 0.0 && d.is_finite())
+        .collect();
+    let q = steps.iter().copied().fold(f64::INFINITY, f64::min);
+    if steps.len() < 10 || !q.is_finite() {
+        return 0.0;
+    }
+    let whole = steps
+        .iter()
+        .filter(|d| {
+            let m = *d / q;
+            (m - m.round()).abs() < 0.01
+        })
+        .count();
+    if whole as f64 >= 0.9 * steps.len() as f64 {
+        q
+    } else {
+        0.0
+    }
 }
 
 /// A robust loss over short windows of a record, for the *search* of a calibration (never
@@ -129,9 +208,13 @@ pub fn starts_in_motion(volts: &[f64], y: &[f64], output: &str) -> bool {
 }
 
 impl Data {
-    /// Prepares `rec`: picks the first output of [`FIT_OUTPUTS`] it has. When the record
-    /// did not start at rest ([`starts_in_motion`]), the first voltage is held for 2 s
-    /// before it (a steady state).
+    /// Prepares `rec`: the first output of [`FIT_OUTPUTS`] it has is fitted, and every
+    /// other one it has beside it, each in units of its own floor ([`Channel`]; the floor of
+    /// a load angle here without the gap: [`Data::with_backlash`] adds it). An output that
+    /// is constant, or a record whose first output shows no noise (no unit to weigh the
+    /// others in), leaves the others out. When the record did not start at rest
+    /// ([`starts_in_motion`]), the first voltage is held for 2 s before it (a steady
+    /// state).
     pub fn from_record(rec: &Record, name: &str) -> Result<Data, HostError> {
         let (output, y) = FIT_OUTPUTS
             .iter()
@@ -149,7 +232,24 @@ impl Data {
                 "{name}: column `{output}` is constant: nothing to fit"
             )));
         }
-        Ok(Data {
+        let mut extra = Vec::new();
+        for c in FIT_OUTPUTS.iter().filter(|c| **c != output) {
+            let Some(yc) = rec.output(c) else { continue };
+            let (_, nc) = weighted_norm(yc, &weight);
+            if nc <= 0.0 || !nc.is_finite() {
+                continue;
+            }
+            let q = resolution(yc);
+            let noise = crate::noise::sigma(yc).hypot(q / 12f64.sqrt());
+            extra.push(Channel {
+                output: c.to_string(),
+                y: yc.to_vec(),
+                noise,
+                floor: noise,
+                scale: 0.0,
+            });
+        }
+        let d = Data {
             volts: rec.motor_voltage_v.clone(),
             y,
             output,
@@ -158,7 +258,43 @@ impl Data {
             weight,
             norm,
             robust: None,
-        })
+            extra,
+        };
+        Ok(d.with_backlash(0.0))
+    }
+
+    /// The same record with each further output's floor and scale ([`Channel`]) for a model
+    /// of total backlash `backlash_deg` at the load (the load angle's floor holds where in
+    /// the gap the load sits). A further output whose floor is zero or not finite, or every
+    /// one when the first output shows no noise, is left out.
+    pub fn with_backlash(&self, backlash_deg: f64) -> Data {
+        let sigma = crate::noise::sigma(&self.y);
+        let extra = if sigma > 0.0 && sigma.is_finite() {
+            self.extra
+                .iter()
+                .filter_map(|c| {
+                    let floor = Channel::floor_of(&c.output, c.noise, backlash_deg);
+                    (floor > 0.0 && floor.is_finite()).then(|| Channel {
+                        floor,
+                        scale: sigma / floor,
+                        ..c.clone()
+                    })
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        Data {
+            extra,
+            ..self.clone()
+        }
+    }
+
+    /// The names of the outputs fitted, the first first.
+    pub fn columns(&self) -> Vec<&str> {
+        std::iter::once(self.output.as_str())
+            .chain(self.extra.iter().map(|c| c.output.as_str()))
+            .collect()
     }
 
     /// The same record with the robust window loss `r` for the search (`None`: plain).
@@ -298,6 +434,14 @@ impl Data {
             weight,
             norm,
             robust: self.robust,
+            extra: self
+                .extra
+                .iter()
+                .map(|c| Channel {
+                    y: take(&c.y),
+                    ..c.clone()
+                })
+                .collect(),
         }
     }
 }
@@ -350,10 +494,128 @@ pub fn output(p: &ActuatorParams, d: &Data) -> Option<Vec<f64>> {
     output_with(p, d, |_, _| {})
 }
 
-/// [`output`] over each record of `data`: one run of the model per record, to cost on any
-/// weighting of the same records ([`cost_of`]).
+/// Every output fitted of [`simulate`] in one run: the first output's rows, then each
+/// further output's ([`Data::extra`]) in turn (what the costs need; [`nrmse_of`] reads the
+/// first output's rows alone). [`output`] for a record with one output.
+pub fn output_all(p: &ActuatorParams, d: &Data) -> Option<Vec<f64>> {
+    if d.extra.is_empty() {
+        return output(p, d);
+    }
+    let n = d.volts.len();
+    let values: Vec<fn(&Outputs) -> f32> = d
+        .extra
+        .iter()
+        .map(|c| column(&c.output).unwrap_or(&COLUMNS[0]).value)
+        .collect();
+    let mut y = Vec::with_capacity(n * (1 + values.len()));
+    let mut rest = vec![Vec::with_capacity(n); values.len()];
+    run(
+        p,
+        d,
+        |_, _| {},
+        |v, o| {
+            y.push(v);
+            for (r, f) in rest.iter_mut().zip(&values) {
+                r.push(f64::from(f(o)));
+            }
+        },
+    )?;
+    for r in rest {
+        y.extend(r);
+    }
+    Some(y)
+}
+
+/// [`output_all`] over each record of `data`: one run of the model per record, to cost on
+/// any weighting of the same records ([`cost_of`]).
 pub fn outputs(p: &ActuatorParams, data: &[Data]) -> Vec<Option<Vec<f64>>> {
-    data.iter().map(|d| output(p, d)).collect()
+    data.iter().map(|d| output_all(p, d)).collect()
+}
+
+/// The further outputs' share of a record's cost for a model whose outputs over it are `y`
+/// ([`output_all`]): Σ over them and the weighted rows of (scale · residual)², over the
+/// first output's norm squared (0 for a record with one output; ∞ for `None`).
+fn extra_cost(y: Option<&[f64]>, d: &Data) -> f64 {
+    if d.extra.is_empty() {
+        return 0.0;
+    }
+    let Some(y) = y else { return f64::INFINITY };
+    let n = d.y.len();
+    let spans = offset_spans(d);
+    let mut sum = 0.0;
+    for (i, c) in d.extra.iter().enumerate() {
+        let Some(model) = y.get((i + 1) * n..(i + 2) * n) else {
+            return f64::INFINITY;
+        };
+        sum += channel_residual(model, c, d, &spans)
+            .iter()
+            .zip(&d.weight)
+            .map(|(r, w)| w * (c.scale * r).powi(2))
+            .sum::<f64>();
+    }
+    sum / (d.norm * d.norm)
+}
+
+/// The spans over which an angle output's offset is its own ([`channel_residual`]): the
+/// runs of rows the fit keeps (weight ½ or more), cut where each start from rest begins
+/// ([`Data::restarts`]; where a thinned record's pieces join, too).
+fn offset_spans(d: &Data) -> Vec<(usize, usize)> {
+    let n = d.y.len();
+    let mut cuts = d.restarts().into_iter().map(|r| r.0).peekable();
+    let mut out = Vec::new();
+    let mut lo: Option<usize> = None;
+    for (k, w) in d.weight.iter().enumerate().take(n) {
+        let cut = cuts.peek() == Some(&k);
+        if cut {
+            cuts.next();
+        }
+        let keep = *w >= 0.5;
+        if cut || !keep {
+            if let Some(a) = lo.take() {
+                out.push((a, k));
+            }
+        }
+        if keep && lo.is_none() {
+            lo = Some(k);
+        }
+    }
+    if let Some(a) = lo {
+        out.push((a, n));
+    }
+    out
+}
+
+/// The residual (measured − model) of the further output `c` whose model rows are `model`,
+/// one per row. An angle is the integral of a speed: after a span the model cannot follow
+/// (gear rattle: [`crate::predictability`]) the unit's position is lost by an amount no
+/// model predicts, and it stays lost, so an angle is compared over each of `spans`
+/// ([`offset_spans`]) with its weighted mean offset there taken out — its motion, not where
+/// it drifted to — and not at all on the rows outside them. Every other output row by row.
+fn channel_residual(model: &[f64], c: &Channel, d: &Data, spans: &[(usize, usize)]) -> Vec<f64> {
+    let mut r: Vec<f64> = c.y.iter().zip(model).map(|(b, a)| b - a).collect();
+    if !column(&c.output).is_some_and(|col| col.quantity == Quantity::Angle) {
+        return r;
+    }
+    let mut kept = vec![false; r.len()];
+    for &(a, b) in spans {
+        let (Some(rs), Some(ws)) = (r.get_mut(a..b), d.weight.get(a..b)) else {
+            continue;
+        };
+        let sw: f64 = ws.iter().sum();
+        if sw > 0.0 {
+            let mean = rs.iter().zip(ws).map(|(x, w)| x * w).sum::<f64>() / sw;
+            rs.iter_mut().for_each(|x| *x -= mean);
+        }
+        if let Some(k) = kept.get_mut(a..b) {
+            k.iter_mut().for_each(|x| *x = true);
+        }
+    }
+    for (x, k) in r.iter_mut().zip(&kept) {
+        if !k {
+            *x = 0.0;
+        }
+    }
+    r
 }
 
 /// [`output`] with [`simulate_with`]'s hook.
@@ -447,30 +709,47 @@ pub fn cost_of(outputs: &[Option<Vec<f64>>], data: &[Data]) -> Option<f64> {
     let sum: f64 = outputs
         .iter()
         .zip(data)
-        .map(|(y, d)| nrmse_of(y.as_deref(), d).powi(2))
+        .map(|(y, d)| nrmse_of(y.as_deref(), d).powi(2) + extra_cost(y.as_deref(), d))
         .sum();
     Some(sum / data.len().max(1) as f64)
 }
 
-/// Stacked normalised residuals (measured − model) over all records: Σ r² = mean over
-/// records of NRMSE².
+/// Stacked normalised residuals (measured − model) over all records, each record's further
+/// outputs after its first ([`Channel`], scaled into the first's unit): Σ r² = mean over
+/// records of NRMSE² (with the further outputs' share, [`cost_of`]).
 pub fn residuals(p: &ActuatorParams, data: &[Data]) -> DVector<f64> {
     let w = 1.0 / (data.len().max(1) as f64).sqrt();
-    let m: usize = data.iter().map(|d| d.y.len()).sum();
+    let m: usize = data.iter().map(|d| d.y.len() * (1 + d.extra.len())).sum();
     let mut r = Vec::with_capacity(m);
     for d in data {
-        let start = r.len();
-        match output(p, d) {
-            Some(y) => r.extend(
-                y.iter()
-                    .zip(&d.y)
-                    .zip(&d.weight)
-                    .map(|((a, b), wk)| w * wk.sqrt() * (b - a) / d.norm),
-            ),
-            None => r.extend(std::iter::repeat_n(1e3, d.y.len())),
-        }
-        if let (Some(rb), Some(rows)) = (d.robust, r.get_mut(start..)) {
-            compress(rows, &d.weight, rb, w * w / (d.norm * d.norm));
+        let n = d.y.len();
+        let y = output_all(p, d);
+        let spans = if d.extra.is_empty() {
+            Vec::new()
+        } else {
+            offset_spans(d)
+        };
+        for i in 0..=d.extra.len() {
+            let start = r.len();
+            let model = y.as_deref().and_then(|y| y.get(i * n..(i + 1) * n));
+            let (res, scale) = match (model, i.checked_sub(1).and_then(|j| d.extra.get(j))) {
+                (Some(m), None) => (d.y.iter().zip(m).map(|(b, a)| b - a).collect(), 1.0),
+                (Some(m), Some(c)) => (channel_residual(m, c, d, &spans), c.scale),
+                (None, _) => (Vec::new(), 1.0),
+            };
+            if res.len() == n {
+                r.extend(
+                    res.iter()
+                        .zip(&d.weight)
+                        .map(|(e, wk)| w * wk.sqrt() * scale * e / d.norm),
+                );
+            } else {
+                r.extend(std::iter::repeat_n(1e3, n));
+            }
+            // Each output's rows at its floor are the first's at its noise: one loss.
+            if let (Some(rb), Some(rows)) = (d.robust, r.get_mut(start..)) {
+                compress(rows, &d.weight, rb, w * w / (d.norm * d.norm));
+            }
         }
     }
     DVector::from_vec(r)
@@ -615,6 +894,7 @@ pub(crate) mod tests {
             weight: vec![1.0; n],
             norm: 1.0,
             robust: None,
+            extra: Vec::new(),
         };
         if let Some(t) = p.and_then(|p| simulate(p, &d)) {
             d.y = t.y;

@@ -60,8 +60,8 @@ use crate::repeat::{Coherent, Repeating};
 use crate::residual::{self, Analysis};
 use geared_servo::{ActuatorParams, Effect};
 use settle::{
-    better_on_common, common_rows, floor_cost, settle, settle_seeded, weigh, weigh_one,
-    weigh_smooth,
+    better_on_common, common_rows, first_floor_cost, floor_cost, settle, settle_seeded, weigh,
+    weigh_one, weigh_smooth,
 };
 
 /// Share of the current fit's cost above the noise floor that the best of the linear
@@ -242,9 +242,15 @@ pub struct Outcome {
     pub rejected: Vec<Rejection>,
     /// Estimated noise standard deviation of each record, in its output's unit.
     pub noise_sigma: Vec<f64>,
-    /// NRMSE the noise alone gives (root mean square over records, predictable rows): the
-    /// floor.
+    /// NRMSE of the first output that the noise alone gives (root mean square over records,
+    /// predictable rows): the floor.
     pub floor_nrmse: f64,
+    /// The cost at the floor ([`calibrate::cost`]'s unit, every output fitted: each further
+    /// output at its floor adds what the first at its noise does, [`calibrate::Channel`]);
+    /// `floor_nrmse²` for records with one output.
+    pub floor_cost: f64,
+    /// The outputs fitted in each record, the first first ([`Data::columns`]).
+    pub fitted_outputs: Vec<Vec<String>>,
     /// Share of each record's rows weighted out as unpredictable, at the final fit.
     pub unpredictable_share: Vec<f64>,
     /// The row weights of each record at the final fit (1 predictable, 0 not).
@@ -344,6 +350,12 @@ pub fn diagnose_with(
     opts: &Options,
     progress: &dyn Progress,
 ) -> Result<Outcome, HostError> {
+    // Every output a record has is fitted, each in units of its own floor; a load angle's
+    // holds where in the file's gap the load sits (`calibrate::Channel`).
+    let b = file_params.backlash_deg;
+    let data: Vec<Data> = data.iter().map(|d| d.with_backlash(b)).collect();
+    let validation = validation.map(|v| v.with_backlash(b));
+    let (data, validation) = (data.as_slice(), validation.as_ref());
     let out = diagnose_records(
         file_params,
         data,
@@ -1399,7 +1411,12 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
         unexplained,
         final_analysis,
         final_nrmse_all_rows: calibrate::nrmse(&cur.params, first),
-        floor_nrmse: rms_nrmse(cx.floor(&wdata)),
+        floor_nrmse: rms_nrmse(first_floor_cost(&wdata, &cx.sigma)),
+        floor_cost: cx.floor(&wdata),
+        fitted_outputs: wdata
+            .iter()
+            .map(|d| d.columns().iter().map(|c| c.to_string()).collect())
+            .collect(),
         robust_floor_ratio: robust_ratio,
         residual,
         material_ratio: opts.material_ratio,

@@ -205,6 +205,16 @@ pub(super) fn floor_cost(data: &[Data], sigma: &[f64]) -> f64 {
         / data.len().max(1) as f64
 }
 
+/// [`floor_cost`] of the first output of each record alone (what a record with one output
+/// has; its root is the floor of the first output's NRMSE).
+pub(super) fn first_floor_cost(data: &[Data], sigma: &[f64]) -> f64 {
+    data.iter()
+        .zip(sigma)
+        .map(|(d, s)| noise::floor_nrmse(*s, &d.weight, d.norm).powi(2))
+        .sum::<f64>()
+        / data.len().max(1) as f64
+}
+
 /// The standard deviation of [`floor_cost`] that comes from estimating each record's noise
 /// level from the record ([`noise::sigma2_rel_sd`]).
 pub(super) fn floor_cost_sd(data: &[Data], sigma: &[f64]) -> f64 {
@@ -225,5 +235,7 @@ pub(super) fn floor_cost_sd(data: &[Data], sigma: &[f64]) -> f64 {
 
 /// One weighted record's noise-only NRMSE² at noise level `sigma`.
 fn record_floor_cost(d: &Data, sigma: f64) -> f64 {
-    noise::floor_nrmse(sigma, &d.weight, d.norm).powi(2)
+    // Each further output at its floor weighs what the first does at its noise
+    // (`calibrate::Channel`).
+    noise::floor_nrmse(sigma, &d.weight, d.norm).powi(2) * (1 + d.extra.len()) as f64
 }
