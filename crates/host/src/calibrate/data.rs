@@ -824,6 +824,158 @@ pub(crate) mod tests {
         (volts[skip..].to_vec(), y[skip..].to_vec())
     }
 
+    /// A record of `p` over `volts` (every 2 kHz row) with its tachometer (noise `sigma_t`
+    /// V) and its load angle (noise `sigma_a` degrees, plus `angle_extra(row)`), as a reader
+    /// gives it.
+    fn two_output_record(
+        p: &ActuatorParams,
+        volts: &[f64],
+        sigma_t: f64,
+        sigma_a: f64,
+        angle_extra: impl Fn(usize) -> f64,
+    ) -> Record {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut gauss = move || -> f64 { StandardNormal.sample(&mut rng) };
+        let mut d = data_of(volts.to_vec(), H, None);
+        d.output = "tach_voltage_v".into();
+        let tach = output(p, &d).unwrap();
+        d.output = "load_angle_deg".into();
+        let angle = output(p, &d).unwrap();
+        let n = volts.len();
+        Record {
+            metadata: Vec::new(),
+            time_s: (0..n).map(|k| k as f64 * H).collect(),
+            sample_period_s: H,
+            motor_voltage_v: volts.to_vec(),
+            outputs: vec![
+                (
+                    "tach_voltage_v".into(),
+                    tach.iter().map(|y| y + sigma_t * gauss()).collect(),
+                ),
+                (
+                    "load_angle_deg".into(),
+                    angle
+                        .iter()
+                        .enumerate()
+                        .map(|(k, y)| y + sigma_a * gauss() + angle_extra(k))
+                        .collect(),
+                ),
+            ],
+            warnings: Vec::new(),
+        }
+    }
+
+    /// Two 0.4 s square-wave bursts of ±6 V, each after a 0.1 s rest (2 kHz).
+    fn two_bursts() -> Vec<f64> {
+        let mut v = Vec::new();
+        for _ in 0..2 {
+            v.extend(std::iter::repeat_n(0.0, 200));
+            v.extend((0..800).map(|k| if (k / 100) % 2 == 0 { 6.0 } else { -6.0 }));
+        }
+        v
+    }
+
+    #[test]
+    fn every_output_is_fitted_in_units_of_its_own_floor() {
+        let mut p = REFERENCE;
+        p.sample_period_s = H;
+        let volts = two_bursts();
+        let rec = two_output_record(&p, &volts, 0.02, 0.002, |_| 0.0);
+        let d = Data::from_record(&rec, "r").unwrap();
+        assert_eq!(d.columns(), ["tach_voltage_v", "load_angle_deg"]);
+        let c = &d.extra[0];
+        // Without a gap the angle's floor is its noise; with one it holds where in the gap
+        // the load sits.
+        assert!((c.noise / 0.002 - 1.0).abs() < 0.25, "noise {}", c.noise);
+        assert_eq!(c.floor, c.noise);
+        let g = d.with_backlash(0.05);
+        let f = &g.extra[0];
+        assert!((f.floor - (c.noise.powi(2) + 0.05f64.powi(2) / 12.0).sqrt()).abs() < 1e-12);
+        let sigma = crate::noise::sigma(&d.y);
+        assert!((f.scale - sigma / f.floor).abs() < 1e-12);
+        // The costs agree with one another: the stored run, the stacked residuals, `cost`.
+        let data = [g.clone()];
+        let run = outputs(&p, &data);
+        let c0 = cost_of(&run, &data).unwrap();
+        assert!((residuals(&p, &data).norm_squared() / c0 - 1.0).abs() < 1e-9);
+        assert_eq!(cost(&p, &data), c0);
+        // The first output's NRMSE is unchanged by the second; the cost holds both.
+        assert_eq!(nrmse(&p, &g), nrmse(&p, &data_of_first(&g)));
+        assert!(c0 > nrmse(&p, &g).powi(2));
+        // A wrong load inertia shows in the angle: the angle's share of the cost grows.
+        let mut q = p;
+        q.load.inertia_kg_m2 *= 1.2;
+        let share = |p: &ActuatorParams| cost(p, &data) - nrmse(p, &g).powi(2);
+        assert!(share(&q) > 4.0 * share(&p), "{} {}", share(&q), share(&p));
+        // A record with one output costs as before.
+        let one = data_of_first(&g);
+        assert_eq!(
+            cost(&p, std::slice::from_ref(&one)),
+            nrmse(&p, &one).powi(2)
+        );
+    }
+
+    /// `d` with its first output alone.
+    fn data_of_first(d: &Data) -> Data {
+        Data {
+            extra: Vec::new(),
+            ..d.clone()
+        }
+    }
+
+    #[test]
+    fn an_angle_lost_in_a_span_the_model_cannot_follow_costs_nothing_after_it() {
+        // The unit's angle jumps by 0.5° in the second burst (a position lost where it
+        // rattled) and stays there; with those rows weighted out, each span's offset is its
+        // own and the jump costs nothing; without the weights it dominates.
+        let mut p = REFERENCE;
+        p.sample_period_s = H;
+        let volts = two_bursts();
+        let jump = |k: usize| if k >= 1400 { 0.5 } else { 0.0 };
+        let rec = two_output_record(&p, &volts, 0.02, 0.002, jump);
+        let clean = two_output_record(&p, &volts, 0.02, 0.002, |_| 0.0);
+        let d = Data::from_record(&rec, "r").unwrap().with_backlash(0.05);
+        let c = Data::from_record(&clean, "c").unwrap().with_backlash(0.05);
+        let mut w = vec![1.0; volts.len()];
+        w[1350..1450].iter_mut().for_each(|x| *x = 0.0);
+        let (dw, cw) = (d.with_weights(&w), c.with_weights(&w));
+        let cost1 = |x: &Data| cost(&p, std::slice::from_ref(x));
+        assert!(
+            (cost1(&dw) / cost1(&cw) - 1.0).abs() < 0.05,
+            "{} {}",
+            cost1(&dw),
+            cost1(&cw)
+        );
+        assert!(cost1(&d) > 10.0 * cost1(&c), "{} {}", cost1(&d), cost1(&c));
+        // Also across a start from rest (the second burst begins at row 1200): its offset
+        // is its own.
+        let at_rest = |k: usize| if k >= 1200 { 0.5 } else { 0.0 };
+        let r2 = two_output_record(&p, &volts, 0.02, 0.002, at_rest);
+        let d2 = Data::from_record(&r2, "r2").unwrap().with_backlash(0.05);
+        assert!(
+            (cost1(&d2) / cost1(&c) - 1.0).abs() < 0.05,
+            "{} {}",
+            cost1(&d2),
+            cost1(&c)
+        );
+    }
+
+    #[test]
+    fn an_encoders_count_is_its_resolution() {
+        let q = 0.09;
+        let y: Vec<f64> = (0..500)
+            .map(|k| (30.0 * (0.01 * k as f64).sin() / q).round() * q)
+            .collect();
+        assert!((resolution(&y) - q).abs() < 1e-9, "{}", resolution(&y));
+        let smooth: Vec<f64> = (0..500).map(|k| (0.01 * k as f64).sin()).collect();
+        assert_eq!(resolution(&smooth), 0.0);
+        // Only the angle's floor holds the gap.
+        assert_eq!(Channel::floor_of("current_a", 0.01, 0.05), 0.01);
+        assert!(Channel::floor_of("load_angle_deg", 0.0, 0.12) > 0.034);
+    }
+
     #[test]
     fn a_sensor_offset_at_rest_is_not_motion_at_the_start() {
         let out = "tach_voltage_v";
