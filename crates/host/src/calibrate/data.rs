@@ -681,6 +681,16 @@ pub fn nrmse(p: &ActuatorParams, d: &Data) -> f64 {
     nrmse_of(output(p, d).as_deref(), d)
 }
 
+/// The root of [`cost`] on the one record `d` (without its robust loss): every output it
+/// fits, in its first output's unit ([`Channel`]); its [`nrmse`] when it has one output.
+pub fn nrmse_all(p: &ActuatorParams, d: &Data) -> f64 {
+    if d.extra.is_empty() {
+        return nrmse(p, d);
+    }
+    let y = output_all(p, d);
+    (nrmse_of(y.as_deref(), d).powi(2) + extra_cost(y.as_deref(), d)).sqrt()
+}
+
 /// NRMSE over the weighted rows of `d` of a model output `y` already simulated over `d`'s
 /// input ([`output`]; ∞ for `None`, a model that could not be run).
 pub fn nrmse_of(y: Option<&[f64]>, d: &Data) -> f64 {

@@ -5,10 +5,12 @@
 
 use super::kin;
 use super::search::Refit;
-use super::settle::{better_on_common, common_rows, floor_cost, floor_cost_sd, polish_on_own_rows};
+use super::settle::{
+    better_on_common, common_rows, floor_cost, floor_cost_sd, polish_on_own_rows,
+    record_floor_nrmse,
+};
 use super::{rms_nrmse, Ctx, Options, Rejection, Step};
 use crate::calibrate::{self, Data, Fit, Knob, Param, Point};
-use crate::noise;
 use geared_servo::{ActuatorParams, Effect};
 use rayon::prelude::*;
 
@@ -917,7 +919,8 @@ pub(super) fn accept(
 }
 
 /// Two models on the validation record, on the rows both keep (`vw` and `jw`: the record
-/// weighted by each one's predictability): their NRMSEs `(a, b)` and the noise floor's
+/// weighted by each one's predictability): their NRMSEs `(a, b)` over every output the
+/// record has ([`calibrate::nrmse_all`]) and the noise floor's
 /// there. `None` without a validation record.
 pub(super) fn on_validation(
     cx: &Ctx,
@@ -928,10 +931,12 @@ pub(super) fn on_validation(
 ) -> Option<(f64, f64, f64)> {
     let (vw, jw) = (vw?, jw?);
     let v = vw.with_rows_both_keep(vw, jw);
-    let floor = cx
-        .val_sigma
-        .map_or(0.0, |s| noise::floor_nrmse(s, &v.weight, v.norm));
-    Some((calibrate::nrmse(a, &v), calibrate::nrmse(b, &v), floor))
+    let floor = cx.val_sigma.map_or(0.0, |s| record_floor_nrmse(&v, s));
+    Some((
+        calibrate::nrmse_all(a, &v),
+        calibrate::nrmse_all(b, &v),
+        floor,
+    ))
 }
 
 /// The choice [`accept`] makes.
@@ -961,10 +966,10 @@ fn val_order(
     let (fa, fb) = (&judged.get(a.0)?.fit, &judged.get(b.0)?.fit);
     let ab = c.with_rows_both_keep(wa, wb);
     let v = &ab.with_rows_both_keep(&ab, c);
-    let floor = noise::floor_nrmse(cx.val_sigma?, &v.weight, v.norm);
+    let floor = record_floor_nrmse(v, cx.val_sigma?);
     let (ca, cb) = (
-        calibrate::nrmse(&fa.params, v).powi(2),
-        calibrate::nrmse(&fb.params, v).powi(2),
+        calibrate::nrmse_all(&fa.params, v).powi(2),
+        calibrate::nrmse_all(&fb.params, v).powi(2),
     );
     let n_eff = effective_samples(&fa.params, std::slice::from_ref(v));
     let (hi, lo, ord) = if ca < cb {
@@ -1535,7 +1540,7 @@ mod tests {
     #[test]
     fn a_model_at_the_floor_leaves_nothing_to_explain() {
         let floor = 0.02_f64.powi(2);
-        let sd = floor * noise::sigma2_rel_sd(17_600);
+        let sd = floor * crate::noise::sigma2_rel_sd(17_600);
         let ratio = |r: f64| at_floor((r * 0.02).powi(2), floor, sd, 1e4);
         // clean/4's spurious stiction started at 1.007× the floor, pair/2's spurious third
         // effect at 0.905×: nothing to explain.
@@ -1600,7 +1605,7 @@ mod tests {
     #[test]
     fn a_member_at_the_floor_is_not_told_apart_however_many_bic_units() {
         let floor = 0.0356_f64.powi(2);
-        let sd = floor * noise::sigma2_rel_sd(20_000);
+        let sd = floor * crate::noise::sigma2_rel_sd(20_000);
         let n_eff = 4000.0;
         let back =
             |member: f64| Compared::of(n_eff, 0.0351_f64.powi(2), member.powi(2), floor, sd, 0.3);

@@ -233,6 +233,11 @@ pub(super) fn floor_cost_sd(data: &[Data], sigma: &[f64]) -> f64 {
         / data.len().max(1) as f64
 }
 
+/// The root of [`record_floor_cost`]: the floor of [`calibrate::nrmse_all`].
+pub(super) fn record_floor_nrmse(d: &Data, sigma: f64) -> f64 {
+    noise::floor_nrmse(sigma, &d.weight, d.norm) * ((1 + d.extra.len()) as f64).sqrt()
+}
+
 /// One weighted record's noise-only NRMSE² at noise level `sigma`.
 fn record_floor_cost(d: &Data, sigma: f64) -> f64 {
     // Each further output at its floor weighs what the first does at its noise
