@@ -862,7 +862,9 @@ pub fn fine_step_check(kind: Kind, draw: u64) -> Result<(Vec<BurstGap>, f64, f64
 pub struct Identifiability {
     /// Whether the witness is further than [`WITNESS_RATIO`] from the truth on a record.
     pub identifiable: bool,
-    /// (estimation truth, witness, validation truth, witness) NRMSE on the truth's rows.
+    /// (estimation truth, witness, validation truth, witness) NRMSE on the truth's rows, over
+    /// every output the records carry (`calibrate::nrmse_all`: the first output's NRMSE
+    /// when it is the only one).
     pub nrmse: [f64; 4],
     /// The witness's parameters (a single effect's case).
     pub witness: Option<ActuatorParams>,
@@ -915,8 +917,16 @@ pub fn identifiability(case: &ForeignCase) -> Identifiability {
     let mut t = calibrate::with_measured_stiffness(&case.truth)
         .expect("the suite's units are valid parameter sets");
     t.sample_period_s = case.estimation.sample_period_s;
-    let (we, _) = predictability::weigh(&t, &case.estimation);
-    let (wv, _) = predictability::weigh(&t, &case.validation);
+    // The records as `diagnose` sees them: every output they carry, a load angle's floor
+    // with the file's gap (`calibrate::Channel`), so that the witness is fitted to, and
+    // judged on, what the diagnosis has.
+    let b = case.file.backlash_deg;
+    let (est, val) = (
+        case.estimation.with_backlash(b),
+        case.validation.with_backlash(b),
+    );
+    let (we, _) = predictability::weigh(&t, &est);
+    let (wv, _) = predictability::weigh(&t, &val);
     let mut start = t;
     start.effects.set(e, 0.0);
     let max_v = case.estimation.max_abs_v().max(case.validation.max_abs_v());
@@ -942,8 +952,9 @@ pub fn identifiability(case: &ForeignCase) -> Identifiability {
     let polished = calibrate::polish(&start, &knobs, &both, 20).params;
     let searched =
         calibrate::polish(&calibrate::refine(&start, &knobs, &both), &knobs, &both, 20).params;
-    let (te, tv) = (calibrate::nrmse(&t, &we), calibrate::nrmse(&t, &wv));
-    let ratios = |w: &ActuatorParams| [te, calibrate::nrmse(w, &we), tv, calibrate::nrmse(w, &wv)];
+    let nrmse = calibrate::nrmse_all;
+    let (te, tv) = (nrmse(&t, &we), nrmse(&t, &wv));
+    let ratios = |w: &ActuatorParams| [te, nrmse(w, &we), tv, nrmse(w, &wv)];
     let worst = |n: &[f64; 4]| (n[1] / n[0]).max(n[3] / n[2]);
     let (np, ns) = (ratios(&polished), ratios(&searched));
     let (w, nrmse) = if worst(&ns) < worst(&np) {
