@@ -687,8 +687,13 @@ pub fn nrmse_all(p: &ActuatorParams, d: &Data) -> f64 {
     if d.extra.is_empty() {
         return nrmse(p, d);
     }
-    let y = output_all(p, d);
-    (nrmse_of(y.as_deref(), d).powi(2) + extra_cost(y.as_deref(), d)).sqrt()
+    record_cost(output_all(p, d).as_deref(), d).sqrt()
+}
+
+/// One record's share of [`cost_of`] for a model whose outputs over it are `y`
+/// ([`output_all`]): the first output's NRMSE² and the further outputs' share.
+fn record_cost(y: Option<&[f64]>, d: &Data) -> f64 {
+    nrmse_of(y, d).powi(2) + extra_cost(y, d)
 }
 
 /// NRMSE over the weighted rows of `d` of a model output `y` already simulated over `d`'s
@@ -719,7 +724,7 @@ pub fn cost_of(outputs: &[Option<Vec<f64>>], data: &[Data]) -> Option<f64> {
     let sum: f64 = outputs
         .iter()
         .zip(data)
-        .map(|(y, d)| nrmse_of(y.as_deref(), d).powi(2) + extra_cost(y.as_deref(), d))
+        .map(|(y, d)| record_cost(y.as_deref(), d))
         .sum();
     Some(sum / data.len().max(1) as f64)
 }

@@ -198,21 +198,20 @@ const SETTLE_ROUNDS: usize = 3;
 /// The floor cost (mean over records of the noise-only NRMSE²) of weighted records whose
 /// noise levels are `sigma`.
 pub(super) fn floor_cost(data: &[Data], sigma: &[f64]) -> f64 {
-    data.iter()
-        .zip(sigma)
-        .map(|(d, s)| record_floor_cost(d, *s))
-        .sum::<f64>()
-        / data.len().max(1) as f64
+    mean_over(data, sigma, record_floor_cost)
 }
 
 /// [`floor_cost`] of the first output of each record alone (what a record with one output
 /// has; its root is the floor of the first output's NRMSE).
 pub(super) fn first_floor_cost(data: &[Data], sigma: &[f64]) -> f64 {
-    data.iter()
-        .zip(sigma)
-        .map(|(d, s)| noise::floor_nrmse(*s, &d.weight, d.norm).powi(2))
-        .sum::<f64>()
-        / data.len().max(1) as f64
+    mean_over(data, sigma, |d, s| {
+        noise::floor_nrmse(s, &d.weight, d.norm).powi(2)
+    })
+}
+
+/// The mean over records of `per(record, its noise level)`.
+fn mean_over(data: &[Data], sigma: &[f64], per: impl Fn(&Data, f64) -> f64) -> f64 {
+    data.iter().zip(sigma).map(|(d, s)| per(d, *s)).sum::<f64>() / data.len().max(1) as f64
 }
 
 /// The standard deviation of [`floor_cost`] that comes from estimating each record's noise
