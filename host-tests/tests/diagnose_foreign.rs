@@ -650,6 +650,7 @@ fn the_unit_in_the_files_constants_is_exact() {
         norm: 1.0,
         robust: None,
         extra: Vec::new(),
+        steps: false,
     };
     for draw in [0, 4] {
         let mut truth = foreign::true_unit(draw).unwrap();

@@ -52,7 +52,7 @@ pub fn time_series(
         .map_err(err(path))?;
     ch.configure_mesh()
         .x_desc("time (s)")
-        .y_desc(format!("{} ({})", d.output, unit_of(&d.output)))
+        .y_desc(format!("{} ({})", d.first_name(), unit_of(&d.output)))
         .draw()
         .map_err(err(path))?;
     let series: [(&[f64], &str, RGBColor); 3] = [

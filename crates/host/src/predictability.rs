@@ -584,7 +584,7 @@ pub fn assess_smooth(p: &ActuatorParams, d: &Data, s: &Smoothness, sigma: f64) -
 /// `d` weighted by its smoothness under `p` ([`assess_smooth`] with the default settings and
 /// the record's own noise level, [`crate::noise::sigma`]).
 pub fn weigh_smooth(p: &ActuatorParams, d: &Data) -> (Data, Predictability) {
-    let pr = assess_smooth(p, d, &Smoothness::default(), crate::noise::sigma(&d.y));
+    let pr = assess_smooth(p, d, &Smoothness::default(), d.sigma());
     (d.with_weights(&pr.weight), pr)
 }
 

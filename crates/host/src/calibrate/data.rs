@@ -32,6 +32,13 @@ pub struct Data {
     pub robust: Option<Robust>,
     /// The record's other measured outputs, fitted beside the first ([`Channel`]).
     pub extra: Vec<Channel>,
+    /// The first output is an angle taken as its steps from one sample to the next:
+    /// `y[k]` = θ[k] − θ[k−1] of the column `output`, `y[0]` = 0, and the model's alike
+    /// ([`Data::from_record`] for a record whose first output is an angle). An angle is the
+    /// integral of a speed: after a span no model can follow (gear rattle), or from an
+    /// encoder whose zero is not the model's, the unit's position is off by an amount that
+    /// stays; its steps are not, and they are compared row by row like a speed.
+    pub steps: bool,
 }
 
 /// A further measured output of a record, fitted beside the first (`Data::y`) on the same
@@ -109,6 +116,17 @@ pub fn resolution(y: &[f64]) -> f64 {
     } else {
         0.0
     }
+}
+
+/// The steps of `theta` from one sample to the next, 0 at the first ([`Data::steps`]).
+pub fn steps_of(theta: &[f64]) -> Vec<f64> {
+    std::iter::once(0.0)
+        .chain(theta.windows(2).map(|w| match w {
+            [a, b] => b - a,
+            _ => 0.0,
+        }))
+        .take(theta.len())
+        .collect()
 }
 
 /// A robust loss over short windows of a record, for the *search* of a calibration (never
@@ -216,11 +234,24 @@ impl Data {
     /// ([`starts_in_motion`]), the first voltage is held for 2 s before it (a steady
     /// state).
     pub fn from_record(rec: &Record, name: &str) -> Result<Data, HostError> {
-        let (output, y) = FIT_OUTPUTS
+        let (output, raw) = FIT_OUTPUTS
             .iter()
             .find_map(|c| rec.output(c).map(|y| (c.to_string(), y.to_vec())))
             .ok_or_else(|| HostError::input(format!("{name}: no output column to fit")))?;
-        let preroll = if starts_in_motion(&rec.motor_voltage_v, &y, &output) {
+        let steps = column(&output).is_some_and(|c| c.quantity == Quantity::Angle);
+        let y = if steps { steps_of(&raw) } else { raw };
+        // An angle's steps say whether the record starts in motion as a speed does, from
+        // its first step.
+        let in_motion = if steps {
+            let mut probe = y.clone();
+            if let (Some(first), Some(&next)) = (probe.first_mut(), y.get(1)) {
+                *first = next;
+            }
+            starts_in_motion(&rec.motor_voltage_v, &probe, "load_speed_rad_s")
+        } else {
+            starts_in_motion(&rec.motor_voltage_v, &y, &output)
+        };
+        let preroll = if in_motion {
             (2.0 / rec.sample_period_s).round() as usize
         } else {
             0
@@ -233,7 +264,10 @@ impl Data {
             )));
         }
         let mut extra = Vec::new();
-        for c in FIT_OUTPUTS.iter().filter(|c| **c != output) {
+        // The angle whose steps are the first output is fitted as it is too, over each
+        // predictable span with its offset free ([`channel_residual`]): its slow motion,
+        // which its steps show only under the noise of every row.
+        for c in FIT_OUTPUTS.iter().filter(|c| steps || **c != output) {
             let Some(yc) = rec.output(c) else { continue };
             let (_, nc) = weighted_norm(yc, &weight);
             if nc <= 0.0 || !nc.is_finite() {
@@ -259,6 +293,7 @@ impl Data {
             norm,
             robust: None,
             extra,
+            steps,
         };
         Ok(d.with_backlash(0.0))
     }
@@ -268,7 +303,7 @@ impl Data {
     /// the gap the load sits). A further output whose floor is zero or not finite, or every
     /// one when the first output shows no noise, is left out.
     pub fn with_backlash(&self, backlash_deg: f64) -> Data {
-        let sigma = crate::noise::sigma(&self.y);
+        let sigma = self.sigma();
         let extra = if sigma > 0.0 && sigma.is_finite() {
             self.extra
                 .iter()
@@ -290,11 +325,44 @@ impl Data {
         }
     }
 
-    /// The names of the outputs fitted, the first first.
-    pub fn columns(&self) -> Vec<&str> {
-        std::iter::once(self.output.as_str())
-            .chain(self.extra.iter().map(|c| c.output.as_str()))
+    /// The names of the outputs fitted, the first first (an angle's steps as
+    /// "`column` steps", [`Data::steps`]).
+    pub fn columns(&self) -> Vec<String> {
+        std::iter::once(self.first_name())
+            .chain(self.extra.iter().map(|c| c.output.clone()))
             .collect()
+    }
+
+    /// The first output's name: its column's, with " steps" after it when it is an angle
+    /// taken as its steps ([`Data::steps`]).
+    pub fn first_name(&self) -> String {
+        if self.steps {
+            format!("{} steps", self.output)
+        } else {
+            self.output.clone()
+        }
+    }
+
+    /// The noise level of the first output as it is fitted, in its unit
+    /// ([`crate::noise::sigma`]). An angle's steps (e[k] − e[k−1] of its noise e) carry
+    /// √2 times the angle's noise, and their third differences are the angle's fourth,
+    /// which the estimator is not calibrated on: the angle is rebuilt from the steps and
+    /// its noise taken, with its resolution (an encoder's count q adds q/√12, [`resolution`]),
+    /// times √2.
+    pub fn sigma(&self) -> f64 {
+        if !self.steps {
+            return crate::noise::sigma(&self.y);
+        }
+        let theta: Vec<f64> = self
+            .y
+            .iter()
+            .scan(0.0, |a, d| {
+                *a += d;
+                Some(*a)
+            })
+            .collect();
+        let q = resolution(&theta);
+        std::f64::consts::SQRT_2 * crate::noise::sigma(&theta).hypot(q / 12f64.sqrt())
     }
 
     /// The same record with the robust window loss `r` for the search (`None`: plain).
@@ -434,6 +502,7 @@ impl Data {
             weight,
             norm,
             robust: self.robust,
+            steps: self.steps,
             extra: self
                 .extra
                 .iter()
@@ -650,8 +719,12 @@ fn run(
     // Data are made from the record's columns (`from_record`); the tachometer otherwise.
     let value = column(&d.output).unwrap_or(&COLUMNS[0]).value;
     let mut o = plant.outputs(&st);
+    // An angle's steps ([`Data::steps`]): 0 at the first row.
+    let mut prev = f64::from(value(&o));
     for (k, &v) in d.volts.iter().enumerate() {
-        take(f64::from(value(&o)), &o);
+        let now = f64::from(value(&o));
+        take(if d.steps { now - prev } else { now }, &o);
+        prev = now;
         hook(k, &mut st);
         o = plant.step(&mut st, v as f32);
     }
@@ -801,10 +874,7 @@ pub fn cost(p: &ActuatorParams, data: &[Data]) -> f64 {
 /// estimated from the record ([`crate::noise::sigma`]).
 pub fn robust(data: &[Data]) -> Vec<Data> {
     data.iter()
-        .map(|d| {
-            let sigma = crate::noise::sigma(&d.y);
-            d.with_robust(Some(Robust::new(sigma, d.sample_period_s)))
-        })
+        .map(|d| d.with_robust(Some(Robust::new(d.sigma(), d.sample_period_s))))
         .collect()
 }
 
@@ -933,6 +1003,89 @@ pub(crate) mod tests {
     }
 
     /// `d` with its first output alone.
+    /// `rec` with its load angle alone, shifted by `offset` degrees (an encoder's zero).
+    fn angle_alone(rec: &Record, offset: f64) -> Record {
+        let angle = rec.output("load_angle_deg").unwrap();
+        Record {
+            outputs: vec![(
+                "load_angle_deg".into(),
+                angle.iter().map(|a| a + offset).collect(),
+            )],
+            ..rec.clone()
+        }
+    }
+
+    #[test]
+    fn an_angle_alone_is_fitted_as_its_steps_and_as_itself_offset_free() {
+        let mut p = REFERENCE;
+        p.sample_period_s = H;
+        let volts = two_bursts();
+        let sigma_a = 0.002;
+        let rec = two_output_record(&p, &volts, 0.02, sigma_a, |_| 0.0);
+        let d = Data::from_record(&angle_alone(&rec, 0.0), "r").unwrap();
+        assert!(d.steps);
+        assert_eq!(d.columns(), ["load_angle_deg steps", "load_angle_deg"]);
+        assert_eq!(d.y.len(), volts.len());
+        assert_eq!(d.y[0], 0.0);
+        // The steps carry √2 times the angle's noise.
+        let s = d.sigma();
+        assert!(
+            (s / (std::f64::consts::SQRT_2 * sigma_a) - 1.0).abs() < 0.25,
+            "sigma {s}"
+        );
+        // The model's steps are taken alike: at the truth the first output's NRMSE is its
+        // floor (the noise alone), within the estimate's spread.
+        let floor = crate::noise::floor_nrmse(s, &d.weight, d.norm);
+        let e = nrmse(&p, &d);
+        assert!((e / floor - 1.0).abs() < 0.3, "NRMSE {e} floor {floor}");
+        // An encoder's zero that is not the model's changes nothing.
+        let shifted = Data::from_record(&angle_alone(&rec, 37.0), "s").unwrap();
+        let g = d.with_backlash(0.05);
+        let gs = shifted.with_backlash(0.05);
+        let c = cost(&p, std::slice::from_ref(&g));
+        let cs = cost(&p, std::slice::from_ref(&gs));
+        assert!((cs / c - 1.0).abs() < 1e-6, "{cs} {c}");
+        // A wrong load inertia shows.
+        let mut q = p;
+        q.load.inertia_kg_m2 *= 1.2;
+        let cq = cost(&q, std::slice::from_ref(&g));
+        assert!(cq > 4.0 * c, "{cq} {c}");
+        // The costs agree with one another.
+        let data = [g.clone()];
+        let c0 = cost_of(&outputs(&p, &data), &data).unwrap();
+        assert!((residuals(&p, &data).norm_squared() / c0 - 1.0).abs() < 1e-9);
+        // A thinned or reweighted record keeps its steps.
+        assert!(g.with_weights(&vec![1.0; volts.len()]).steps);
+        assert!(g.thinned(500).steps);
+    }
+
+    #[test]
+    fn steps_of_an_angle_start_at_zero() {
+        assert_eq!(steps_of(&[1.0, 1.5, 0.5]), [0.0, 0.5, -1.0]);
+        assert_eq!(steps_of(&[]), Vec::<f64>::new());
+        assert_eq!(steps_of(&[2.0]), [0.0]);
+    }
+
+    #[test]
+    fn a_quantised_angle_at_rest_has_a_noise_level() {
+        // An encoder of 0.01° counts that sits still most of the time: the steps' noise is
+        // at least the count's, not 0.
+        let theta: Vec<f64> = (0..4000)
+            .map(|k| {
+                if (k / 500) % 2 == 0 {
+                    0.0
+                } else {
+                    0.01 * ((k % 500) / 50) as f64
+                }
+            })
+            .collect();
+        let mut d = data_of(vec![0.0; theta.len()], H, None);
+        d.y = steps_of(&theta);
+        d.steps = true;
+        let q = 0.01 / 12f64.sqrt() * std::f64::consts::SQRT_2;
+        assert!(d.sigma() >= 0.99 * q, "{} {q}", d.sigma());
+    }
+
     fn data_of_first(d: &Data) -> Data {
         Data {
             extra: Vec::new(),
@@ -1062,6 +1215,7 @@ pub(crate) mod tests {
             norm: 1.0,
             robust: None,
             extra: Vec::new(),
+            steps: false,
         };
         if let Some(t) = p.and_then(|p| simulate(p, &d)) {
             d.y = t.y;

@@ -409,7 +409,7 @@ pub fn diagnose_with(
         calibrate::nrmse(&both.nominal, &vn),
         calibrate::nrmse(&both.final_fit.params, &vc),
     ));
-    both.validation_floor = Some(noise::floor_nrmse(noise::sigma(&v.y), &vc.weight, vc.norm));
+    both.validation_floor = Some(noise::floor_nrmse(v.sigma(), &vc.weight, vc.norm));
     both.validation_in_fit = Some((after, v_floor));
     Ok(both)
 }
@@ -451,9 +451,9 @@ impl<'a> Ctx<'a> {
         Ok(Ctx {
             nominal,
             data,
-            sigma: data.iter().map(|d| noise::sigma(&d.y)).collect(),
+            sigma: data.iter().map(Data::sigma).collect(),
             validation,
-            val_sigma: validation.map(|v| noise::sigma(&v.y)),
+            val_sigma: validation.map(Data::sigma),
             max_v: data.iter().map(Data::max_abs_v).fold(0.0, f64::max),
             opts,
             progress,
