@@ -6,11 +6,12 @@
 //!
 //! ```text
 //! cargo run --release -p geared-servo-host-tests --example foreign_records -- DIR \
-//!     [--kind clean|motor_viscous|...|pair|second_mode] [--draw N] [--seconds S]
+//!     [--kind clean|motor_viscous|...|pair|second_mode] [--draw N] [--seconds S] [--angle-only]
 //! ```
 //! `--seconds` sets the length of the estimation record (the stepped sine gets as many
 //! 0.3 s bursts with 0.1 s rests as fit, 10–300 Hz; default 8.8 s): 20 gives the benchmark
-//! record "diagnose on 20 s of 2 kHz data with all candidates". Then, e.g.:
+//! record "diagnose on 20 s of 2 kHz data with all candidates". `--angle-only`: the records
+//! carry the load angle alone (an output encoder or potentiometer, no tachometer). Then, e.g.:
 //! `geared-servo diagnose --params DIR/file.toml --data DIR/estimation.csv --validate DIR/validation.csv`.
 
 use geared_servo_host::params_file;
@@ -42,7 +43,8 @@ fn run() -> Result<(), String> {
     let mut kind = Kind::Clean;
     let mut draw = 0u64;
     let mut seconds: Option<f64> = None;
-    let usage = "usage: foreign_records DIR [--kind NAME] [--draw N] [--seconds S]";
+    let mut angle_only = false;
+    let usage = "usage: foreign_records DIR [--kind NAME] [--draw N] [--seconds S] [--angle-only]";
     while let Some(a) = args.next() {
         let mut value = |what: &str| {
             args.next()
@@ -70,6 +72,7 @@ fn run() -> Result<(), String> {
                 }
                 seconds = Some(s);
             }
+            "--angle-only" => angle_only = true,
             "-h" | "--help" => {
                 println!("{usage}");
                 return Ok(());
@@ -82,6 +85,7 @@ fn run() -> Result<(), String> {
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let making = Making {
         stepped_sine: seconds.map_or_else(SteppedSine::default, SteppedSine::lasting),
+        angle_only,
         ..Making::default()
     };
     let t = std::time::Instant::now();

@@ -543,6 +543,9 @@ pub struct Making {
     pub stepped_sine: SteppedSine,
     /// RK4 step of the reference, s.
     pub fine_step_s: f64,
+    /// The records carry the load angle alone (no tachometer): what a unit with an output
+    /// encoder or a potentiometer gives (`GS_FOREIGN_OUTPUTS=load_angle_deg`).
+    pub angle_only: bool,
 }
 
 impl Default for Making {
@@ -550,6 +553,7 @@ impl Default for Making {
         Making {
             stepped_sine: SteppedSine::default(),
             fine_step_s: FINE_STEP_S,
+            angle_only: false,
         }
     }
 }
@@ -559,8 +563,9 @@ impl Making {
     /// seconds when that is set (the suite and the probes on long records).
     ///
     /// # Panics
-    /// When `GS_FOREIGN_SECONDS` is set and not a number of seconds: a development switch
-    /// mistyped must not run the standard records unnoticed.
+    /// When `GS_FOREIGN_SECONDS` is set and not a number of seconds, or
+    /// `GS_FOREIGN_OUTPUTS` is set and not `load_angle_deg` (the records with the angle
+    /// alone): a development switch mistyped must not run the standard records unnoticed.
     pub fn from_env() -> Making {
         let mut making = Making::default();
         if let Ok(s) = std::env::var("GS_FOREIGN_SECONDS") {
@@ -569,6 +574,14 @@ impl Making {
                 .parse()
                 .expect("GS_FOREIGN_SECONDS: a number of seconds");
             making.stepped_sine = SteppedSine::lasting(secs);
+        }
+        if let Ok(s) = std::env::var("GS_FOREIGN_OUTPUTS") {
+            assert_eq!(
+                s.trim(),
+                "load_angle_deg",
+                "GS_FOREIGN_OUTPUTS: only `load_angle_deg` (the angle alone) is offered"
+            );
+            making.angle_only = true;
         }
         making
     }
@@ -636,13 +649,18 @@ pub fn reference_run(
 
 /// A measured record of the unit: the clean run plus seeded noise; with `angle`, also the
 /// load angle column. Returns the record and the noise's Euclidean norm on the tachometer.
+///
+/// Returns the record, the norm of the noise in its first output as `diagnose` fits it,
+/// and that output without noise (with the angle alone: the angle's steps from sample to
+/// sample, `calibrate::Data::steps`).
 fn measure(
     name: &str,
     volts: Vec<f64>,
     clean: (Vec<f64>, Vec<f64>),
     angle: bool,
+    angle_only: bool,
     mut noise: ChaCha8Rng,
-) -> Result<(Record, f64), HostError> {
+) -> Result<(Record, f64, Vec<f64>), HostError> {
     let (tach, theta) = clean;
     let sigma = NOISE_REL * rms(&tach);
     let tach_noise = Normal::new(0.0, sigma).map_err(|e| HostError::other(e.to_string()))?;
@@ -657,12 +675,23 @@ fn measure(
             y + e
         })
         .collect();
-    let mut outputs = vec![("tach_voltage_v".to_string(), tach_v)];
-    if angle {
-        let deg: Vec<f64> = theta
+    let mut outputs = if angle_only {
+        Vec::new()
+    } else {
+        vec![("tach_voltage_v".to_string(), tach_v)]
+    };
+    let mut first_clean = tach;
+    if angle || angle_only {
+        let clean_deg: Vec<f64> = theta.iter().map(|a| a.to_degrees()).collect();
+        let e: Vec<f64> = clean_deg
             .iter()
-            .map(|a| a.to_degrees() + angle_noise.sample(&mut noise))
+            .map(|_| angle_noise.sample(&mut noise))
             .collect();
+        let deg: Vec<f64> = clean_deg.iter().zip(&e).map(|(a, n)| a + n).collect();
+        if angle_only {
+            e2 = calibrate::steps_of(&e).iter().map(|x| x * x).sum();
+            first_clean = calibrate::steps_of(&clean_deg);
+        }
         outputs.push(("load_angle_deg".to_string(), deg));
     }
     let rec = Record {
@@ -678,7 +707,7 @@ fn measure(
         outputs,
         warnings: vec![],
     };
-    Ok((rec, e2.sqrt()))
+    Ok((rec, e2.sqrt(), first_clean))
 }
 
 /// Builds case `(kind, draw)` with the standard records.
@@ -704,25 +733,25 @@ pub fn case_with(kind: Kind, draw: u64, making: &Making) -> Result<ForeignCase, 
     // Odd draws also carry the load encoder.
     let angle = draw % 2 == 1;
     let stream = 300 + 2 * kind.index();
-    let est_clean = est_clean?;
-    let est_clean_tach = est_clean.0.clone();
-    let (est_rec, est_noise) = measure(
+    let (est_rec, est_noise, est_clean_first) = measure(
         &format!("{label} estimation"),
         est_v,
-        est_clean,
+        est_clean?,
         angle,
+        making.angle_only,
         rng(draw, stream),
     )?;
-    let (val_rec, val_noise) = measure(
+    let (val_rec, val_noise, _) = measure(
         &format!("{label} validation"),
         val_v,
         val_clean?,
         angle,
+        making.angle_only,
         rng(draw, stream + 1),
     )?;
     let estimation = Data::from_record(&est_rec, &format!("{label} estimation"))?;
     let validation = Data::from_record(&val_rec, &format!("{label} validation"))?;
-    let true_fit_by_burst = by_burst(&truth, &estimation, &est_clean_tach, &making.stepped_sine);
+    let true_fit_by_burst = by_burst(&truth, &estimation, &est_clean_first, &making.stepped_sine);
     Ok(ForeignCase {
         kind,
         draw,
