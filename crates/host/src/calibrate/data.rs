@@ -333,6 +333,18 @@ impl Data {
             .collect()
     }
 
+    /// The output columns the record has, as they are named in it (an angle fitted as its
+    /// steps once: it is also among the further outputs).
+    pub fn measured(&self) -> Vec<&str> {
+        let mut out = vec![self.output.as_str()];
+        for c in &self.extra {
+            if !out.contains(&c.output.as_str()) {
+                out.push(c.output.as_str());
+            }
+        }
+        out
+    }
+
     /// The first output's name: its column's, with " steps" after it when it is an angle
     /// taken as its steps ([`Data::steps`]).
     pub fn first_name(&self) -> String {

@@ -3,60 +3,118 @@
 use crate::calibrate::{self, Knob, Param};
 use geared_servo::{ActuatorParams, Effect};
 
+/// One way to separate two effects: a record of an output the records lack (`needs`, a
+/// column of `crate::record::OUTPUT_COLUMNS`), or another procedure (`None`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Separation {
+    /// The output this way records; `None` for a procedure (another excitation).
+    pub needs: Option<&'static str>,
+    /// What to do, and why it separates them.
+    pub how: &'static str,
+}
+
+/// A procedure that separates two effects ([`Separation`]).
+const fn by(how: &'static str) -> Separation {
+    Separation { needs: None, how }
+}
+
+/// A record of `output` that separates two effects ([`Separation`]).
+const fn recording(output: &'static str, how: &'static str) -> Separation {
+    Separation {
+        needs: Some(output),
+        how,
+    }
+}
+
+const LOG_CURRENT_VISCOUS: Separation = recording(
+    "current_a",
+    "log the armature current (viscous friction draws current, a sensor error does not)",
+);
+const ANGLE_INDEPENDENT: Separation = recording(
+    "load_angle_deg",
+    "record the load angle with an independent sensor",
+);
+const TWO_AMPLITUDES_CONTACT: Separation = by(
+    "a stepped sine at two amplitudes through the resonance (mesh damping acts only in contact)",
+);
+const TWO_AMPLITUDES_SATURATION: Separation =
+    by("records at two amplitudes (saturation depends on the amplitude, a delay or a gain error does not)");
+
 /// Pairs of effects that records of one output at one amplitude often cannot tell apart,
 /// with what would separate them: the one list the search and the report use. When one of
 /// a pair is among the candidates refitted, so is the other, so that a tie is reported as a
 /// tie, not decided by which of the two the projection happened to rank higher.
-pub const KIN: [(Effect, Effect, &str); 10] = [
+pub const KIN: [(Effect, Effect, &[Separation]); 10] = [
     (
         Effect::TachGain,
         Effect::MotorViscous,
-        "log the armature current (viscous friction draws current, a sensor error does not), or record the load angle with an independent sensor",
+        &[LOG_CURRENT_VISCOUS, ANGLE_INDEPENDENT],
     ),
     (
         Effect::TachGain,
         Effect::LoadViscous,
-        "log the armature current (viscous friction draws current, a sensor error does not), or record the load angle with an independent sensor",
+        &[LOG_CURRENT_VISCOUS, ANGLE_INDEPENDENT],
     ),
     (
         Effect::MotorViscous,
         Effect::LoadViscous,
-        "a stepped sine with more periods through the anti-resonance, or a record of the load angle (the two damp different masses)",
+        &[
+            by("a stepped sine with more periods through the anti-resonance"),
+            recording(
+                "load_angle_deg",
+                "a record of the load angle (the two damp different masses)",
+            ),
+        ],
     ),
     (
         Effect::MeshDamping,
         Effect::LoadViscous,
-        "a stepped sine at two amplitudes through the resonance (mesh damping acts only in contact)",
+        &[TWO_AMPLITUDES_CONTACT],
     ),
     (
         Effect::MeshDamping,
         Effect::MotorViscous,
-        "a stepped sine at two amplitudes through the resonance (mesh damping acts only in contact)",
+        &[TWO_AMPLITUDES_CONTACT],
     ),
     (
         Effect::HingeStiffness,
         Effect::GravityTorque,
-        "a record with large load angles, or one that starts away from the hanging position (a spring is linear in the angle, gravity goes as its sine)",
+        &[
+            by("a record with large load angles"),
+            by("one that starts away from the hanging position (a spring is linear in the angle, gravity goes as its sine)"),
+        ],
     ),
     (
         Effect::InputDelay,
         Effect::TachLag,
-        "a stepped sine well above 1/(2π τ) (a lag's phase stops at 90°, a delay's grows without bound), or a record of the load angle (a tachometer lag does not delay it)",
+        &[
+            by("a stepped sine well above 1/(2π τ) (a lag's phase stops at 90°, a delay's grows without bound)"),
+            recording(
+                "load_angle_deg",
+                "a record of the load angle (a tachometer lag does not delay it)",
+            ),
+        ],
     ),
     (
         Effect::InputDelay,
         Effect::VoltageLimit,
-        "records at two amplitudes (saturation depends on the amplitude, a delay or a gain error does not)",
+        &[TWO_AMPLITUDES_SATURATION],
     ),
     (
         Effect::VoltageLimit,
         Effect::TachGain,
-        "records at two amplitudes (saturation depends on the amplitude, a delay or a gain error does not)",
+        &[TWO_AMPLITUDES_SATURATION],
     ),
     (
         Effect::StictionRatio,
         Effect::DriveDeadband,
-        "log the armature current (a dead band cuts it off around zero voltage, stiction does not), or a slow voltage ramp through zero (the dead band holds the motor at the voltage's reversal, stiction at the speed's)",
+        &[
+            recording(
+                "current_a",
+                "log the armature current (a dead band cuts it off around zero voltage, stiction does not)",
+            ),
+            by("a slow voltage ramp through zero (the dead band holds the motor at the voltage's reversal, stiction at the speed's)"),
+        ],
     ),
 ];
 
@@ -75,18 +133,36 @@ pub fn kin(e: Effect) -> Vec<Effect> {
         .collect()
 }
 
-/// What would separate `a` from `b` when a record cannot ([`KIN`], or a general advice).
-pub fn separating_measurement(a: Effect, b: Effect, output: &str) -> String {
+/// What would separate `a` from `b` when records of the outputs `measured` (column names)
+/// cannot ([`KIN`], or a general advice): the ways that need an output the records already
+/// have are left out.
+pub fn separating_measurement(a: Effect, b: Effect, measured: &[&str]) -> String {
+    let has = |o: &str| measured.contains(&o);
     let found = KIN
         .iter()
         .find(|&&(x, y, _)| (a == x && b == y) || (a == y && b == x))
-        .map(|&(_, _, m)| m.to_string());
-    match found {
-        // A record of the current already has it: the rest of the advice holds.
-        Some(m) if output == "current_a" => m
-            .replace("log the armature current (viscous friction draws current, a sensor error does not), or ", ""),
-        Some(m) => m,
-        None => "records at two amplitudes and of other outputs (current, load angle)".to_string(),
+        .map(|&(_, _, ways)| ways);
+    let ways: Vec<&str> = found
+        .unwrap_or(&[])
+        .iter()
+        .filter(|w| w.needs.is_none_or(|o| !has(o)))
+        .map(|w| w.how)
+        .collect();
+    if !ways.is_empty() {
+        return ways.join(", or ");
+    }
+    let missing: Vec<&str> = [("current_a", "current"), ("load_angle_deg", "load angle")]
+        .iter()
+        .filter(|(c, _)| !has(c))
+        .map(|(_, n)| *n)
+        .collect();
+    if missing.is_empty() {
+        "records at two amplitudes".to_string()
+    } else {
+        format!(
+            "records at two amplitudes and of other outputs ({})",
+            missing.join(", ")
+        )
     }
 }
 
@@ -319,6 +395,45 @@ pub(super) mod tests {
             worst = worst.max(rel(a.effects.get(e), b.effects.get(e)));
         }
         worst
+    }
+
+    #[test]
+    fn the_advice_leaves_out_the_outputs_the_records_have() {
+        use Effect::*;
+        let tach = ["tach_voltage_v"];
+        let both = ["tach_voltage_v", "load_angle_deg"];
+        let angle = ["load_angle_deg"];
+        // A tachometer alone: every way, as it always read.
+        assert_eq!(
+            separating_measurement(MotorViscous, LoadViscous, &tach),
+            "a stepped sine with more periods through the anti-resonance, or a record of the load angle (the two damp different masses)"
+        );
+        assert_eq!(
+            separating_measurement(TachGain, MotorViscous, &tach),
+            "log the armature current (viscous friction draws current, a sensor error does not), or record the load angle with an independent sensor"
+        );
+        // With the angle: not "record the angle".
+        assert_eq!(
+            separating_measurement(LoadViscous, MotorViscous, &both),
+            "a stepped sine with more periods through the anti-resonance"
+        );
+        assert!(!separating_measurement(TachGain, LoadViscous, &both).contains("load angle"));
+        // With the current: not "log the current", for any pair.
+        let cur = ["tach_voltage_v", "current_a"];
+        for &(a, b, _) in &KIN {
+            let s = separating_measurement(a, b, &cur);
+            assert!(!s.contains("log the armature current"), "{a} {b}: {s}");
+            assert!(!s.is_empty(), "{a} {b}");
+        }
+        // No pair listed: the outputs the records lack.
+        assert_eq!(
+            separating_measurement(TachOffset, GravityTorque, &angle),
+            "records at two amplitudes and of other outputs (current)"
+        );
+        assert_eq!(
+            separating_measurement(TachOffset, GravityTorque, &["load_angle_deg", "current_a"]),
+            "records at two amplitudes"
+        );
     }
 
     #[test]

@@ -606,7 +606,7 @@ fn apply_swap(
     cur: &mut Fit,
     wdata: &mut Vec<Data>,
     sw: judge::Swap,
-    output: &str,
+    measured: &[&str],
 ) {
     if let Some(st) = steps.get_mut(sw.step) {
         let k = sw
@@ -626,7 +626,7 @@ fn apply_swap(
         st.separate_by = st
             .indistinguishable_from
             .first()
-            .map(|(o, _)| separating_measurement(sw.effect, *o, output))
+            .map(|(o, _)| separating_measurement(sw.effect, *o, measured))
             .unwrap_or_default();
         st.nrmse_before = sw.nrmse_before;
         st.nrmse_after = sw.nrmse_after;
@@ -745,12 +745,12 @@ fn diagnose_records(
                 st.told_apart.retain(|r| r.effect != effect);
                 st.indistinguishable_from.push((effect, value));
                 if st.separate_by.is_empty() {
-                    st.separate_by = separating_measurement(st.effect, effect, &first.output);
+                    st.separate_by = separating_measurement(st.effect, effect, &first.measured());
                 }
             }
         }
         if let Some(sw) = swap {
-            apply_swap(&mut steps, &mut cur, &mut wdata, sw, &first.output);
+            apply_swap(&mut steps, &mut cur, &mut wdata, sw, &first.measured());
         }
     }
     let mut last_scores = Vec::new();
@@ -946,7 +946,7 @@ fn diagnose_records(
                         let swap =
                             judge::swap_stand_in(&cx, &cur, &wdata, &steps, si, &j.fit, j.effect);
                         if let Some(sw) = swap {
-                            apply_swap(&mut steps, &mut cur, &mut wdata, sw, &first.output);
+                            apply_swap(&mut steps, &mut cur, &mut wdata, sw, &first.measured());
                             rejected.clear();
                             cx.trace(format_args!(
                                 "{pass}, round {rounds}: a stand-in step swapped for its class member"
@@ -990,7 +990,7 @@ fn diagnose_records(
                 .collect();
             let separate_by = others
                 .first()
-                .map(|(o, _)| separating_measurement(chosen.effect, *o, &first.output))
+                .map(|(o, _)| separating_measurement(chosen.effect, *o, &first.measured()))
                 .unwrap_or_default();
             // The effect can change where the model is predictable (mesh damping calms rattle):
             // settle again, locally.
