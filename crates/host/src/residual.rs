@@ -17,7 +17,7 @@ pub const LAGS: usize = 25;
 pub const BAND_EDGES_HZ: [f64; 7] = [0.0, 1.0, 5.0, 20.0, 80.0, 250.0, 600.0];
 
 /// The analysis of one residual.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Analysis {
     /// ‖e‖ / ‖y − ȳ‖.
     pub nrmse: f64,
@@ -134,46 +134,7 @@ pub fn analyse_weighted(y: &[f64], model: &Trace, u: &[f64], h: f64, w: &[f64]) 
     } else {
         f64::INFINITY
     };
-    let bound = Z99 / (n as f64).sqrt();
-    let ac: Vec<f64> = (1..=LAGS).map(|k| autocorr(&e, &e, k)).collect();
-    let outside = ac.iter().filter(|r| r.abs() > bound).count();
-    let xc = (0..=LAGS)
-        .map(|k| autocorr(u, &e, k).abs())
-        .fold(0.0, f64::max);
-
-    let (f, p) = spectrum(&e, h);
-    let total: f64 = p.iter().sum::<f64>().max(1e-300);
-    let nyq = 0.5 / h;
-    let mut edges: Vec<f64> = BAND_EDGES_HZ.iter().copied().filter(|&x| x < nyq).collect();
-    edges.push(nyq);
-    let bands = edges
-        .iter()
-        .zip(edges.iter().skip(1))
-        .map(|(&lo, &hi)| {
-            let s: f64 = f
-                .iter()
-                .zip(&p)
-                .filter(|(fk, _)| **fk >= lo && (**fk < hi || hi >= nyq))
-                .map(|(_, pk)| pk)
-                .sum();
-            (lo, hi, s / total)
-        })
-        .collect();
-    let peak_hz = f
-        .iter()
-        .zip(&p)
-        .skip(1)
-        .fold(
-            (0.0, -1.0),
-            |(bf, bp), (fk, pk)| {
-                if *pk > bp {
-                    (*fk, *pk)
-                } else {
-                    (bf, bp)
-                }
-            },
-        )
-        .0;
+    let shape = Shape::of(&e, u, h);
 
     // Regimes: near a reversal of the model's motor speed (within 5 % of its peak), large
     // current (above half its peak), contact versus gap (only when there is a gap).
@@ -209,18 +170,131 @@ pub fn analyse_weighted(y: &[f64], model: &Trace, u: &[f64], h: f64, w: &[f64]) 
         regimes.push(("in_gap".to_string(), a, b));
     }
 
-    Analysis {
+    let mut out = Analysis {
         nrmse,
         fit_percent: 100.0 * (1.0 - nrmse),
-        autocorrelation: ac,
-        bound,
-        lags_outside: outside,
-        white: outside <= 1,
-        max_input_correlation: xc,
-        input_correlated: xc > bound,
-        bands,
-        peak_hz,
         regimes,
+        ..Analysis::default()
+    };
+    shape.into(&mut out);
+    out
+}
+
+/// [`analyse_weighted`] of an angle fitted as its steps from sample to sample
+/// (`calibrate::Data::steps`): the NRMSE and the regimes are the steps', the whiteness, the
+/// input correlation and the spectrum are of the angle's residual rebuilt from them over
+/// each run of kept rows (weight ½ or more), its mean there taken out and 0 elsewhere. The
+/// steps' own noise, e[k] − e[k−1], is not white (−½ at lag 1): the angle's is, and a slow
+/// error shows in the angle where its steps spread it over every row.
+pub fn analyse_steps(y: &[f64], model: &Trace, u: &[f64], h: f64, w: &[f64]) -> Analysis {
+    let mut out = analyse_weighted(y, model, u, h, w);
+    let wk = |k: usize| w.get(k).copied().unwrap_or(1.0);
+    let mut z = vec![0.0; y.len().min(model.y.len())];
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    let (mut acc, mut lo) = (0.0, None);
+    for (k, zk) in z.iter_mut().enumerate() {
+        if wk(k) >= 0.5 {
+            acc += y.get(k).copied().unwrap_or(0.0) - model.y.get(k).copied().unwrap_or(0.0);
+            *zk = acc;
+            lo.get_or_insert(k);
+        } else {
+            acc = 0.0;
+            if let Some(a) = lo.take() {
+                runs.push((a, k));
+            }
+        }
+    }
+    if let Some(a) = lo {
+        runs.push((a, z.len()));
+    }
+    for (a, b) in runs {
+        if let Some(span) = z.get_mut(a..b) {
+            let m = span.iter().sum::<f64>() / span.len().max(1) as f64;
+            span.iter_mut().for_each(|x| *x -= m);
+        }
+    }
+    Shape::of(&z, u, h).into(&mut out);
+    out
+}
+
+/// What the whiteness test, the input correlation and the spectrum say of a residual.
+struct Shape {
+    autocorrelation: Vec<f64>,
+    bound: f64,
+    lags_outside: usize,
+    max_input_correlation: f64,
+    bands: Vec<(f64, f64, f64)>,
+    peak_hz: f64,
+}
+
+impl Shape {
+    /// Of the residual `e` (rows weighted already) against the input `u`, sampled every `h` s.
+    fn of(e: &[f64], u: &[f64], h: f64) -> Shape {
+        let n = e.len().max(1);
+        let bound = Z99 / (n as f64).sqrt();
+        let ac: Vec<f64> = (1..=LAGS).map(|k| autocorr(e, e, k)).collect();
+        let outside = ac.iter().filter(|r| r.abs() > bound).count();
+        let xc = (0..=LAGS)
+            .map(|k| autocorr(u, e, k).abs())
+            .fold(0.0, f64::max);
+        let (bands, peak_hz) = Shape::spectral(e, h);
+        Shape {
+            autocorrelation: ac,
+            bound,
+            lags_outside: outside,
+            max_input_correlation: xc,
+            bands,
+            peak_hz,
+        }
+    }
+
+    fn into(self, a: &mut Analysis) {
+        a.white = self.lags_outside <= 1;
+        a.input_correlated = self.max_input_correlation > self.bound;
+        a.autocorrelation = self.autocorrelation;
+        a.bound = self.bound;
+        a.lags_outside = self.lags_outside;
+        a.max_input_correlation = self.max_input_correlation;
+        a.bands = self.bands;
+        a.peak_hz = self.peak_hz;
+    }
+
+    /// The residual's energy by band and the frequency of its largest line.
+    fn spectral(e: &[f64], h: f64) -> (Vec<(f64, f64, f64)>, f64) {
+        let (f, p) = spectrum(e, h);
+        let total: f64 = p.iter().sum::<f64>().max(1e-300);
+        let nyq = 0.5 / h;
+        let mut edges: Vec<f64> = BAND_EDGES_HZ.iter().copied().filter(|&x| x < nyq).collect();
+        edges.push(nyq);
+        let bands = edges
+            .iter()
+            .zip(edges.iter().skip(1))
+            .map(|(&lo, &hi)| {
+                let s: f64 = f
+                    .iter()
+                    .zip(&p)
+                    .filter(|(fk, _)| **fk >= lo && (**fk < hi || hi >= nyq))
+                    .map(|(_, pk)| pk)
+                    .sum();
+                (lo, hi, s / total)
+            })
+            .collect();
+        let peak_hz = f
+            .iter()
+            .zip(&p)
+            .skip(1)
+            .fold(
+                (0.0, -1.0),
+                |(bf, bp), (fk, pk)| {
+                    if *pk > bp {
+                        (*fk, *pk)
+                    } else {
+                        (bf, bp)
+                    }
+                },
+            )
+            .0;
+        (bands, peak_hz)
     }
 }
 
@@ -298,6 +372,36 @@ mod tests {
         assert!((80.0..=250.0).contains(&lo) || (lo <= 120.0 && hi > 120.0));
         assert!(share > 0.9, "{share}");
         assert!((a.peak_hz - 120.0).abs() < 2.0, "{}", a.peak_hz);
+    }
+
+    #[test]
+    fn an_angles_steps_are_judged_white_by_the_angle_they_rebuild() {
+        // Steps of white noise (e[k] − e[k−1]) are not white; the angle rebuilt from them
+        // is, over each run of kept rows; the NRMSE is the steps'.
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let nd = Normal::new(0.0, 1e-3).unwrap();
+        let n = 4000;
+        let e: Vec<f64> = (0..n).map(|_| nd.sample(&mut rng)).collect();
+        let steps: Vec<f64> = std::iter::once(0.0)
+            .chain(e.windows(2).map(|w| w[1] - w[0]))
+            .collect();
+        let y: Vec<f64> = (0..n).map(|k| (k as f64 * 0.01).sin() + steps[k]).collect();
+        let model = trace((0..n).map(|k| (k as f64 * 0.01).sin()).collect());
+        let u = vec![0.0; n];
+        let mut w = vec![1.0; n];
+        w[1000..1200].iter_mut().for_each(|x| *x = 0.0);
+        let plain = analyse_weighted(&y, &model, &u, 5e-4, &w);
+        let a = analyse_steps(&y, &model, &u, 5e-4, &w);
+        assert!(!plain.white, "steps judged white");
+        assert!(a.white, "{} lags outside", a.lags_outside);
+        assert_eq!(a.nrmse, plain.nrmse);
+        // A slow error is not white in the angle.
+        let drift: Vec<f64> = (0..n)
+            .map(|k| y[k] + 2e-3 * (k as f64 * 0.003).sin())
+            .collect();
+        assert!(!analyse_steps(&drift, &model, &u, 5e-4, &w).white);
     }
 
     #[test]

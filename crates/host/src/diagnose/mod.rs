@@ -287,10 +287,12 @@ fn rms_nrmse(cost: f64) -> f64 {
 fn analyse(p: &ActuatorParams, d: &Data) -> Result<(Analysis, calibrate::Trace), HostError> {
     let t = calibrate::simulate(p, d)
         .ok_or_else(|| HostError::other("the calibrated parameters are invalid"))?;
-    Ok((
-        residual::analyse_weighted(&d.y, &t, &d.volts, d.sample_period_s, &d.weight),
-        t,
-    ))
+    let analysis = if d.steps {
+        residual::analyse_steps(&d.y, &t, &d.volts, d.sample_period_s, &d.weight)
+    } else {
+        residual::analyse_weighted(&d.y, &t, &d.volts, d.sample_period_s, &d.weight)
+    };
+    Ok((analysis, t))
 }
 
 /// The parameters named in `names`, each one [`diagnose`] can calibrate
@@ -675,7 +677,11 @@ fn diagnose_records(
     let nominal_analysis = {
         let t = calibrate::simulate(&nominal, first)
             .ok_or_else(|| HostError::other("the file's parameters are invalid"))?;
-        residual::analyse(&first.y, &t, &first.volts, first.sample_period_s)
+        if first.steps {
+            residual::analyse_steps(&first.y, &t, &first.volts, first.sample_period_s, &[])
+        } else {
+            residual::analyse(&first.y, &t, &first.volts, first.sample_period_s)
+        }
     };
 
     let mut knobs = match &opts.fit {
