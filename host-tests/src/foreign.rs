@@ -648,7 +648,7 @@ pub fn reference_run(
 }
 
 /// A measured record of the unit: the clean run plus seeded noise; with `angle`, also the
-/// load angle column. Returns the record and the noise's Euclidean norm on the tachometer.
+/// load angle column; with `angle_only`, that column alone.
 ///
 /// Returns the record, the norm of the noise in its first output as `diagnose` fits it,
 /// and that output without noise (with the angle alone: the angle's steps from sample to
