@@ -184,7 +184,7 @@ pub fn analyse_weighted(y: &[f64], model: &Trace, u: &[f64], h: f64, w: &[f64]) 
 /// (`calibrate::Data::steps`): the NRMSE and the regimes are the steps', the whiteness, the
 /// input correlation and the spectrum are of the angle's residual rebuilt from them over
 /// each run of kept rows (weight ½ or more), its mean there taken out and 0 elsewhere. The
-/// steps' own noise, e[k] − e[k−1], is not white (−½ at lag 1): the angle's is, and a slow
+/// steps' own noise, `e[k] − e[k−1]`, is not white (−½ at lag 1): the angle's is, and a slow
 /// error shows in the angle where its steps spread it over every row.
 pub fn analyse_steps(y: &[f64], model: &Trace, u: &[f64], h: f64, w: &[f64]) -> Analysis {
     let mut out = analyse_weighted(y, model, u, h, w);

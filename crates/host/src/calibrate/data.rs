@@ -33,7 +33,7 @@ pub struct Data {
     /// The record's other measured outputs, fitted beside the first ([`Channel`]).
     pub extra: Vec<Channel>,
     /// The first output is an angle taken as its steps from one sample to the next:
-    /// `y[k]` = θ[k] − θ[k−1] of the column `output`, `y[0]` = 0, and the model's alike
+    /// `y[k] = θ[k] − θ[k−1]` of the column `output`, `y[0]` = 0, and the model's alike
     /// ([`Data::from_record`] for a record whose first output is an angle). An angle is the
     /// integral of a speed: after a span no model can follow (gear rattle), or from an
     /// encoder whose zero is not the model's, the unit's position is off by an amount that
@@ -356,7 +356,7 @@ impl Data {
     }
 
     /// The noise level of the first output as it is fitted, in its unit
-    /// ([`crate::noise::sigma`]). An angle's steps (e[k] − e[k−1] of its noise e) carry
+    /// ([`crate::noise::sigma`]). An angle's steps (`e[k] − e[k−1]` of its noise e) carry
     /// √2 times the angle's noise, and their third differences are the angle's fourth,
     /// which the estimator is not calibrated on: the angle is rebuilt from the steps and
     /// its noise taken, with its resolution (an encoder's count q adds q/√12, [`resolution`]),
