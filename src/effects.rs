@@ -264,6 +264,29 @@ impl Effect {
         Effect::ALL.into_iter().find(|e| e.key() == key)
     }
 
+    /// The measured output an effect acts on alone when it is an error of that sensor, as a
+    /// record's column names it (INTERFACES.md, "Measured data"): the tachometer's gain,
+    /// offset, lag and current pick-up change `tach_voltage_v` and nothing the plant does, so
+    /// a record without that column cannot show them. `None` for an effect of the plant or
+    /// the drive, which every output shows.
+    pub const fn sensor_column(self) -> Option<&'static str> {
+        match self {
+            Effect::TachGain
+            | Effect::TachOffset
+            | Effect::TachLag
+            | Effect::TachCurrentCoupling => Some("tach_voltage_v"),
+            Effect::MotorViscous
+            | Effect::LoadViscous
+            | Effect::MeshDamping
+            | Effect::HingeStiffness
+            | Effect::InputDelay
+            | Effect::VoltageLimit
+            | Effect::StictionRatio
+            | Effect::GravityTorque
+            | Effect::DriveDeadband => None,
+        }
+    }
+
     /// Natural magnitude of the effect on actuator `s` (the scale a calibration's search grid
     /// is built on), in its unit: the back-EMF damping for viscous friction (at the load for
     /// the load's), critical damping of the gear mode for mesh damping, k_eq for the hinge,

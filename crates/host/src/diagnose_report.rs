@@ -139,6 +139,11 @@ impl Outcome {
             json!({"sigma": self.noise_sigma, "floor_nrmse": self.floor_nrmse, "robust_floor_ratio": self.robust_floor_ratio, "residual": self.residual.name()}),
         );
         insert(&mut v, "fitted_outputs", json!(self.fitted_outputs));
+        insert(
+            &mut v,
+            "unseen_candidates",
+            json!(self.unseen.iter().map(|e| e.name()).collect::<Vec<_>>()),
+        );
         if let Some(n) = v.get_mut("noise") {
             insert(
                 n,
@@ -287,6 +292,24 @@ impl Outcome {
                 s,
                 "fitted outputs:         {} (each further output in units of its own floor, scaled to the first's noise; an angle over each predictable span with its offset free: a fit's or an effect's NRMSE below is of them all together, in the first output's unit)",
                 per.join("; ")
+            );
+        }
+        if !self.unseen.is_empty() {
+            let names: Vec<&str> = self.unseen.iter().map(|e| e.name()).collect();
+            let cols: Vec<&str> = self.unseen.iter().filter_map(|e| e.sensor_column()).fold(
+                Vec::new(),
+                |mut v, c| {
+                    if !v.contains(&c) {
+                        v.push(c);
+                    }
+                    v
+                },
+            );
+            let _ = writeln!(
+                s,
+                "not tried:              {} (errors of a sensor these records do not have: {})",
+                names.join(", "),
+                cols.join(", ")
             );
         }
         if let Some((a, m)) = self.unpredictable_rms {

@@ -164,6 +164,46 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_sensor_error_changes_its_own_column_and_nothing_else() {
+        // Each effect that names a sensor column (Effect::sensor_column), at a value inside
+        // its plausible range, changes that column of a square-wave run and leaves every
+        // other column the record could carry as it was: a record without the column
+        // cannot show it (`diagnose` does not try it there).
+        use geared_servo::Effect;
+        let volts: Vec<f64> = (0..4000)
+            .map(|k| if (k / 400) % 2 == 0 { 8.0 } else { -8.0 })
+            .collect();
+        let base = simulate_columns(&geared_servo::REFERENCE, 5e-4, &volts).unwrap();
+        let mut sensors = 0;
+        for e in Effect::ALL {
+            let Some(col) = e.sensor_column() else {
+                continue;
+            };
+            sensors += 1;
+            let (lo, hi) = e.plausible_range();
+            let mut p = geared_servo::REFERENCE;
+            p.effects.set(
+                e,
+                if hi > 0.0 {
+                    0.5 * (lo.max(0.0) + hi)
+                } else {
+                    lo
+                },
+            );
+            let run = simulate_columns(&p, 5e-4, &volts).unwrap();
+            for (i, name) in SIMULATE_COLUMNS.iter().enumerate() {
+                let same = run[i] == base[i];
+                if *name == col {
+                    assert!(!same, "{e} leaves {col} as it was");
+                } else if crate::record::OUTPUT_COLUMNS.contains(name) {
+                    assert!(same, "{e} changes {name}");
+                }
+            }
+        }
+        assert_eq!(sensors, 4);
+    }
+
+    #[test]
     fn every_column_has_the_unit_its_name_says() {
         for c in &COLUMNS {
             let by_name = crate::param_list::unit_of(c.name);

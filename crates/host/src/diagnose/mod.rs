@@ -251,6 +251,9 @@ pub struct Outcome {
     pub floor_cost: f64,
     /// The outputs fitted in each record, the first first ([`Data::columns`]).
     pub fitted_outputs: Vec<Vec<String>>,
+    /// Candidates not tried: errors of a sensor whose output no record has
+    /// ([`Effect::sensor_column`]; a tachometer's gain on records of the load angle alone).
+    pub unseen: Vec<Effect>,
     /// Share of each record's rows weighted out as unpredictable, at the final fit.
     pub unpredictable_share: Vec<f64>,
     /// The row weights of each record at the final fit (1 predictable, 0 not).
@@ -564,6 +567,13 @@ impl<'a> Ctx<'a> {
     }
 
     /// The validation record weighted by its predictability under `p`.
+    /// Whether the records can show effect `e` at all: an error of a sensor
+    /// ([`Effect::sensor_column`]) only where some record has that sensor's output.
+    fn shows(&self, e: Effect) -> bool {
+        e.sensor_column()
+            .is_none_or(|col| self.data.iter().any(|d| d.measured().contains(&col)))
+    }
+
     fn val_weighted(&self, p: &ActuatorParams) -> Option<Data> {
         self.validation
             .map(|v| weigh_one(p, v, self.opts.predictability))
@@ -806,6 +816,7 @@ fn diagnose_records(
             let cands: Vec<(Effect, Knob)> = opts
                 .candidates
                 .iter()
+                .filter(|&&c| cx.shows(c))
                 .filter(|&&c| cur.params.effects.get(c) == 0.0 || background(c))
                 .map(|&c| (c, calibrate::knob(&cur.params, Param::Effect(c), max_v)))
                 .collect();
@@ -1422,6 +1433,12 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
         fitted_outputs: wdata
             .iter()
             .map(|d| d.columns().iter().map(|c| c.to_string()).collect())
+            .collect(),
+        unseen: opts
+            .candidates
+            .iter()
+            .copied()
+            .filter(|&c| !cx.shows(c))
             .collect(),
         robust_floor_ratio: robust_ratio,
         residual,
