@@ -1014,7 +1014,6 @@ pub(crate) mod tests {
         );
     }
 
-    /// `d` with its first output alone.
     /// `rec` with its load angle alone, shifted by `offset` degrees (an encoder's zero).
     fn angle_alone(rec: &Record, offset: f64) -> Record {
         let angle = rec.output("load_angle_deg").unwrap();
@@ -1098,6 +1097,7 @@ pub(crate) mod tests {
         assert!(d.sigma() >= 0.99 * q, "{} {q}", d.sigma());
     }
 
+    /// `d` with its first output alone.
     fn data_of_first(d: &Data) -> Data {
         Data {
             extra: Vec::new(),

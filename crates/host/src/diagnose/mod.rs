@@ -290,12 +290,17 @@ fn rms_nrmse(cost: f64) -> f64 {
 fn analyse(p: &ActuatorParams, d: &Data) -> Result<(Analysis, calibrate::Trace), HostError> {
     let t = calibrate::simulate(p, d)
         .ok_or_else(|| HostError::other("the calibrated parameters are invalid"))?;
-    let analysis = if d.steps {
-        residual::analyse_steps(&d.y, &t, &d.volts, d.sample_period_s, &d.weight)
+    Ok((analysis_of(d, &t), t))
+}
+
+/// The residual of the model run `t` over `d`, over its weighted rows: an angle fitted as
+/// its steps judged on the angle they rebuild ([`residual::analyse_steps`]).
+fn analysis_of(d: &Data, t: &calibrate::Trace) -> Analysis {
+    if d.steps {
+        residual::analyse_steps(&d.y, t, &d.volts, d.sample_period_s, &d.weight)
     } else {
-        residual::analyse_weighted(&d.y, &t, &d.volts, d.sample_period_s, &d.weight)
-    };
-    Ok((analysis, t))
+        residual::analyse_weighted(&d.y, t, &d.volts, d.sample_period_s, &d.weight)
+    }
 }
 
 /// The parameters named in `names`, each one [`diagnose`] can calibrate
@@ -687,11 +692,8 @@ fn diagnose_records(
     let nominal_analysis = {
         let t = calibrate::simulate(&nominal, first)
             .ok_or_else(|| HostError::other("the file's parameters are invalid"))?;
-        if first.steps {
-            residual::analyse_steps(&first.y, &t, &first.volts, first.sample_period_s, &[])
-        } else {
-            residual::analyse(&first.y, &t, &first.volts, first.sample_period_s)
-        }
+        // Over every row: the nominal model before any row is weighted out.
+        analysis_of(&first.with_weights(&[]), &t)
     };
 
     let mut knobs = match &opts.fit {
