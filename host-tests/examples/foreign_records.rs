@@ -6,17 +6,18 @@
 //!
 //! ```text
 //! cargo run --release -p geared-servo-host-tests --example foreign_records -- DIR \
-//!     [--kind clean|motor_viscous|...|pair|second_mode] [--draw N] [--seconds S] [--angle-only]
+//!     [--kind clean|motor_viscous|...|pair|second_mode] [--draw N] [--seconds S] [--angle-only | --current-only]
 //! ```
 //! `--seconds` sets the length of the estimation record (the stepped sine gets as many
 //! 0.3 s bursts with 0.1 s rests as fit, 10–300 Hz; default 8.8 s): 20 gives the benchmark
 //! record "diagnose on 20 s of 2 kHz data with all candidates". `--angle-only`: the records
-//! carry the load angle alone (an output encoder or potentiometer, no tachometer). Then, e.g.:
+//! carry the load angle alone (an output encoder or potentiometer, no tachometer);
+//! `--current-only`: the armature current alone (a current sense resistor). Then, e.g.:
 //! `geared-servo diagnose --params DIR/file.toml --data DIR/estimation.csv --validate DIR/validation.csv`.
 
 use geared_servo_host::params_file;
 use geared_servo_host::record::{self, Record};
-use geared_servo_host_tests::foreign::{self, Kind, Making, SteppedSine};
+use geared_servo_host_tests::foreign::{self, Kind, Making, Sensors, SteppedSine};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -43,8 +44,8 @@ fn run() -> Result<(), String> {
     let mut kind = Kind::Clean;
     let mut draw = 0u64;
     let mut seconds: Option<f64> = None;
-    let mut angle_only = false;
-    let usage = "usage: foreign_records DIR [--kind NAME] [--draw N] [--seconds S] [--angle-only]";
+    let mut sensors = Sensors::Bench;
+    let usage = "usage: foreign_records DIR [--kind NAME] [--draw N] [--seconds S] [--angle-only | --current-only]";
     while let Some(a) = args.next() {
         let mut value = |what: &str| {
             args.next()
@@ -72,7 +73,8 @@ fn run() -> Result<(), String> {
                 }
                 seconds = Some(s);
             }
-            "--angle-only" => angle_only = true,
+            "--angle-only" => sensors = Sensors::AngleOnly,
+            "--current-only" => sensors = Sensors::CurrentOnly,
             "-h" | "--help" => {
                 println!("{usage}");
                 return Ok(());
@@ -85,7 +87,7 @@ fn run() -> Result<(), String> {
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let making = Making {
         stepped_sine: seconds.map_or_else(SteppedSine::default, SteppedSine::lasting),
-        angle_only,
+        sensors,
         ..Making::default()
     };
     let t = std::time::Instant::now();

@@ -14,7 +14,7 @@
 //! Everything is seeded by the draw number: the same `(kind, draw)` gives the same case, bit
 //! for bit, on any machine and thread count.
 
-use crate::reference::{relative_rms_error, rms, Reference};
+use crate::reference::{relative_rms_error, rms, Reference, Sensed};
 use geared_servo::{ActuatorParams, Effect, Stiffness, REFERENCE};
 use geared_servo_host::calibrate::{self, Data, Param};
 use geared_servo_host::diagnose;
@@ -466,17 +466,34 @@ impl ForeignCase {
         )
     }
 
-    /// What a calibration with the file's resistance should find for effect `e` of true
-    /// value `v`: `v · s` when it [`scales_with_resistance`], `v / s` for the tachometer's
-    /// current pickup (the model's current is s times the true one), `v` otherwise.
+    /// The scale s of the mechanical quantities a calibration finds: the resistance scale
+    /// ([`ForeignCase::resistance_scale`]) when it keeps the file's resistance, 1 when the
+    /// records carry the armature current, which makes `diagnose` fit the resistance
+    /// (`calibrate::RESISTANCE_OUTPUTS`).
+    pub fn fitted_scale(&self) -> f64 {
+        let measured = self.estimation.measured();
+        if measured
+            .iter()
+            .any(|m| calibrate::RESISTANCE_OUTPUTS.contains(m))
+        {
+            1.0
+        } else {
+            self.resistance_scale
+        }
+    }
+
+    /// What a calibration should find for effect `e` of true value `v`, with s its
+    /// [`fitted_scale`](Self::fitted_scale): `v · s` when it [`scales_with_resistance`],
+    /// `v / s` for the tachometer's current pickup (the model's current is s times the true
+    /// one), `v` otherwise.
     ///
     /// A tachometer gain comes out combined with the unit's own ([`Self::unit_tach_gain`]):
     /// (1 + v)(1 + g) − 1.
     pub fn expected_fitted(&self, e: Effect, v: f64) -> f64 {
         if scales_with_resistance(e) {
-            v * self.resistance_scale
+            v * self.fitted_scale()
         } else if e == Effect::TachCurrentCoupling {
-            v / self.resistance_scale
+            v / self.fitted_scale()
         } else if e == Effect::TachGain {
             (1.0 + v) * (1.0 + self.unit_tach_gain()) - 1.0
         } else {
@@ -543,9 +560,33 @@ pub struct Making {
     pub stepped_sine: SteppedSine,
     /// RK4 step of the reference, s.
     pub fine_step_s: f64,
-    /// The records carry the load angle alone (no tachometer): what a unit with an output
-    /// encoder or a potentiometer gives (`GS_FOREIGN_OUTPUTS=load_angle_deg`).
-    pub angle_only: bool,
+    /// The outputs the records carry.
+    pub sensors: Sensors,
+}
+
+/// The outputs a case's records carry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Sensors {
+    /// The tachometer, and on odd draws the load angle too (the bench of the issue).
+    #[default]
+    Bench,
+    /// The load angle alone (no tachometer): what a unit with an output encoder or a
+    /// potentiometer gives (`GS_FOREIGN_OUTPUTS=load_angle_deg`).
+    AngleOnly,
+    /// The armature current alone: what a drive with a current sense resistor and no speed
+    /// sensor gives (`GS_FOREIGN_OUTPUTS=current_a`).
+    CurrentOnly,
+}
+
+impl Sensors {
+    /// The sensor set named by its one column (`load_angle_deg`, `current_a`).
+    pub fn from_column(c: &str) -> Option<Sensors> {
+        match c {
+            "load_angle_deg" => Some(Sensors::AngleOnly),
+            "current_a" => Some(Sensors::CurrentOnly),
+            _ => None,
+        }
+    }
 }
 
 impl Default for Making {
@@ -553,7 +594,7 @@ impl Default for Making {
         Making {
             stepped_sine: SteppedSine::default(),
             fine_step_s: FINE_STEP_S,
-            angle_only: false,
+            sensors: Sensors::Bench,
         }
     }
 }
@@ -564,8 +605,9 @@ impl Making {
     ///
     /// # Panics
     /// When `GS_FOREIGN_SECONDS` is set and not a number of seconds, or
-    /// `GS_FOREIGN_OUTPUTS` is set and not `load_angle_deg` (the records with the angle
-    /// alone): a development switch mistyped must not run the standard records unnoticed.
+    /// `GS_FOREIGN_OUTPUTS` is set and not `load_angle_deg` or `current_a` (the records
+    /// with that column alone, [`Sensors`]): a development switch mistyped must not run the
+    /// standard records unnoticed.
     pub fn from_env() -> Making {
         let mut making = Making::default();
         if let Ok(s) = std::env::var("GS_FOREIGN_SECONDS") {
@@ -576,12 +618,9 @@ impl Making {
             making.stepped_sine = SteppedSine::lasting(secs);
         }
         if let Ok(s) = std::env::var("GS_FOREIGN_OUTPUTS") {
-            assert_eq!(
-                s.trim(),
-                "load_angle_deg",
-                "GS_FOREIGN_OUTPUTS: only `load_angle_deg` (the angle alone) is offered"
+            making.sensors = Sensors::from_column(s.trim()).expect(
+                "GS_FOREIGN_OUTPUTS: `load_angle_deg` (the angle alone) or `current_a` (the current alone)",
             );
-            making.angle_only = true;
         }
         making
     }
@@ -629,6 +668,17 @@ pub fn reference_run(
     volts: &[f64],
     fine_step_s: f64,
 ) -> Result<(Vec<f64>, Vec<f64>), HostError> {
+    let run = reference_sensors(p, mode, volts, fine_step_s)?;
+    Ok((run.tach, run.angle))
+}
+
+/// Every sensor of a clean reference run ([`reference_run`]), the armature current too.
+pub fn reference_sensors(
+    p: &ActuatorParams,
+    mode: Option<&SecondMode>,
+    volts: &[f64],
+    fine_step_s: f64,
+) -> Result<Sensed, HostError> {
     let mut hub = *p;
     let mut r = match mode {
         Some(m) => {
@@ -641,14 +691,15 @@ pub fn reference_run(
         }
         None => Reference::new(&hub, fine_step_s)?,
     };
-    let (mut tach, mut angle) = r.run_tach_and_angle(volts);
-    tach.truncate(volts.len());
-    angle.truncate(volts.len());
-    Ok((tach, angle))
+    let mut run = r.run_sensors(volts);
+    run.truncate(volts.len());
+    Ok(run)
 }
 
-/// A measured record of the unit: the clean run plus seeded noise; with `angle`, also the
-/// load angle column; with `angle_only`, that column alone.
+/// A measured record of the unit: the clean run plus seeded noise, with the outputs
+/// `sensors` says (with [`Sensors::Bench`], the load angle too when `angle`). The
+/// tachometer's and the current's noise are [`NOISE_REL`] of their RMS, the angle's
+/// [`ANGLE_NOISE_DEG`].
 ///
 /// Returns the record, the norm of the noise in its first output as `diagnose` fits it,
 /// and that output without noise (with the angle alone: the angle's steps from sample to
@@ -656,32 +707,46 @@ pub fn reference_run(
 fn measure(
     name: &str,
     volts: Vec<f64>,
-    clean: (Vec<f64>, Vec<f64>),
+    clean: Sensed,
     angle: bool,
-    angle_only: bool,
+    sensors: Sensors,
     mut noise: ChaCha8Rng,
 ) -> Result<(Record, f64, Vec<f64>), HostError> {
-    let (tach, theta) = clean;
-    let sigma = NOISE_REL * rms(&tach);
-    let tach_noise = Normal::new(0.0, sigma).map_err(|e| HostError::other(e.to_string()))?;
+    let Sensed {
+        tach,
+        angle: theta,
+        current,
+    } = clean;
+    let noisy = |clean: &[f64], noise: &mut ChaCha8Rng| -> Result<(Vec<f64>, f64), HostError> {
+        let dist = Normal::new(0.0, NOISE_REL * rms(clean))
+            .map_err(|e| HostError::other(e.to_string()))?;
+        let mut e2 = 0.0;
+        let y = clean
+            .iter()
+            .map(|y| {
+                let e = dist.sample(noise);
+                e2 += e * e;
+                y + e
+            })
+            .collect();
+        Ok((y, e2))
+    };
     let angle_noise =
         Normal::new(0.0, ANGLE_NOISE_DEG).map_err(|e| HostError::other(e.to_string()))?;
-    let mut e2 = 0.0;
-    let tach_v: Vec<f64> = tach
-        .iter()
-        .map(|y| {
-            let e = tach_noise.sample(&mut noise);
-            e2 += e * e;
-            y + e
-        })
-        .collect();
-    let mut outputs = if angle_only {
-        Vec::new()
+    let (mut outputs, mut e2, mut first_clean) = if sensors == Sensors::CurrentOnly {
+        let (i, e2) = noisy(&current, &mut noise)?;
+        (vec![("current_a".to_string(), i)], e2, current)
     } else {
-        vec![("tach_voltage_v".to_string(), tach_v)]
+        let (tach_v, e2) = noisy(&tach, &mut noise)?;
+        let outputs = if sensors == Sensors::AngleOnly {
+            Vec::new()
+        } else {
+            vec![("tach_voltage_v".to_string(), tach_v)]
+        };
+        (outputs, e2, tach)
     };
-    let mut first_clean = tach;
-    if angle || angle_only {
+    let angle_only = sensors == Sensors::AngleOnly;
+    if (angle && sensors == Sensors::Bench) || angle_only {
         let clean_deg: Vec<f64> = theta.iter().map(|a| a.to_degrees()).collect();
         let e: Vec<f64> = clean_deg
             .iter()
@@ -726,8 +791,8 @@ pub fn case_with(kind: Kind, draw: u64, making: &Making) -> Result<ForeignCase, 
     let est_v = making.stepped_sine.volts(SAMPLE_PERIOD_S);
     let val_v = validation_volts(1000 + draw, SAMPLE_PERIOD_S);
     let (est_clean, val_clean) = rayon::join(
-        || reference_run(&truth, mode.as_ref(), &est_v, making.fine_step_s),
-        || reference_run(&truth, mode.as_ref(), &val_v, making.fine_step_s),
+        || reference_sensors(&truth, mode.as_ref(), &est_v, making.fine_step_s),
+        || reference_sensors(&truth, mode.as_ref(), &val_v, making.fine_step_s),
     );
     let label = format!("{}/{}", kind.name(), draw);
     // Odd draws also carry the load encoder.
@@ -738,7 +803,7 @@ pub fn case_with(kind: Kind, draw: u64, making: &Making) -> Result<ForeignCase, 
         est_v,
         est_clean?,
         angle,
-        making.angle_only,
+        making.sensors,
         rng(draw, stream),
     )?;
     let (val_rec, val_noise, _) = measure(
@@ -746,7 +811,7 @@ pub fn case_with(kind: Kind, draw: u64, making: &Making) -> Result<ForeignCase, 
         val_v,
         val_clean?,
         angle,
-        making.angle_only,
+        making.sensors,
         rng(draw, stream + 1),
     )?;
     let estimation = Data::from_record(&est_rec, &format!("{label} estimation"))?;
@@ -959,7 +1024,7 @@ pub fn identifiability(case: &ForeignCase) -> Identifiability {
     let mut start = t;
     start.effects.set(e, 0.0);
     let max_v = case.estimation.max_abs_v().max(case.validation.max_abs_v());
-    let mut knobs = calibrate::default_knobs(&start, max_v);
+    let mut knobs = calibrate::default_knobs_measuring(&start, max_v, &est.measured());
     if !knobs
         .iter()
         .any(|k| k.param == Param::Effect(Effect::MeshDamping))

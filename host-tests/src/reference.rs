@@ -399,6 +399,18 @@ impl Reference {
         out
     }
 
+    /// Tachometer (V), load angle (rad) and armature current (A) records for a voltage
+    /// record, in the convention of [`Reference::run_tach`] (`volts.len() + 1` rows each).
+    pub fn run_sensors(&mut self, volts: &[f64]) -> Sensed {
+        let mut out = Sensed::with_capacity(volts.len() + 1);
+        out.push(self);
+        for &v in volts {
+            self.step(v);
+            out.push(self);
+        }
+        out
+    }
+
     /// Tachometer (V) and load angle (rad) records for a voltage record, in the convention of
     /// [`Reference::run_tach`] (`volts.len() + 1` rows each).
     pub fn run_tach_and_angle(&mut self, volts: &[f64]) -> (Vec<f64>, Vec<f64>) {
@@ -412,6 +424,40 @@ impl Reference {
             angle.push(self.load_angle());
         }
         (tach, angle)
+    }
+}
+
+/// The sensors of a reference run, one sample per row ([`Reference::run_sensors`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Sensed {
+    /// Tachometer voltage, V.
+    pub tach: Vec<f64>,
+    /// Load angle, rad.
+    pub angle: Vec<f64>,
+    /// Armature current, A.
+    pub current: Vec<f64>,
+}
+
+impl Sensed {
+    fn with_capacity(n: usize) -> Sensed {
+        Sensed {
+            tach: Vec::with_capacity(n),
+            angle: Vec::with_capacity(n),
+            current: Vec::with_capacity(n),
+        }
+    }
+
+    fn push(&mut self, r: &Reference) {
+        self.tach.push(r.tach());
+        self.angle.push(r.load_angle());
+        self.current.push(r.current());
+    }
+
+    /// Keeps the first `n` rows of each.
+    pub fn truncate(&mut self, n: usize) {
+        self.tach.truncate(n);
+        self.angle.truncate(n);
+        self.current.truncate(n);
     }
 }
 

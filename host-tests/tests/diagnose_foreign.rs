@@ -158,16 +158,20 @@ fn fmt_steps(out: &Outcome) -> String {
         .join("; ")
 }
 
-/// The base set of `p` against the truth scaled by s, as "name fitted/expected".
+/// The base set of `p` against the truth scaled by s ([`ForeignCase::fitted_scale`]), as
+/// "name fitted/expected"; the resistance too when it is fitted (records with the current).
 fn fmt_base(case: &ForeignCase, p: &ActuatorParams) -> String {
+    let resistance = (case.fitted_scale() == 1.0).then_some(Param::MotorResistance);
     BASE_KNOBS
         .iter()
-        .map(|&k| {
+        .copied()
+        .chain(resistance)
+        .map(|k| {
             let truth = calibrate::get(&case.truth, k);
-            let want = if k == Param::Backlash {
+            let want = if matches!(k, Param::Backlash | Param::MotorResistance) {
                 truth
             } else {
-                truth * case.resistance_scale
+                truth * case.fitted_scale()
             };
             format!(
                 "{} {:+.1}%",

@@ -144,6 +144,7 @@ pub const WIDE: Settings = Settings {
 /// keep 14–30 % of a stepped sine and the truth sits at 0.83–0.95 times the floor on every
 /// case but one (tach_current_coupling/0, 1.6 with every setting).
 pub fn assess(p: &ActuatorParams, d: &Data) -> Predictability {
+    let d = &*d.motion();
     // The model's own run is shared by the three tests.
     let Some(center) = calibrate::output(p, d) else {
         return Predictability::all(d.y.len());
@@ -200,6 +201,7 @@ pub const RESTART_LINE: f64 = 0.1;
 /// [`RESTART_SETTLE_S`] after the start, when a mere transient has decayed; every row weighs 1
 /// on a record without starts from rest (a square wave, a multisine).
 pub fn assess_restarts(p: &ActuatorParams, d: &Data) -> Vec<f64> {
+    let d = &*d.motion();
     match calibrate::output(p, d) {
         Some(center) => restarts_around(p, d, &center),
         None => vec![1.0; d.y.len()],
@@ -340,6 +342,7 @@ fn restarts_around(p: &ActuatorParams, d: &Data, center: &[f64]) -> Vec<f64> {
 /// while the motion goes on, even where their spread happens to be small), and is widened by
 /// one window on each side. Everything is predictable when the model cannot be run.
 pub fn assess_with(p: &ActuatorParams, d: &Data, s: &Settings) -> Predictability {
+    let d = &*d.motion();
     match calibrate::output(p, d) {
         Some(center) => assess_around(p, d, s, &center),
         None => Predictability::all(d.y.len()),
@@ -717,6 +720,36 @@ mod tests {
         // above 1 % of the peak for all but a few rows.
         assert!(s[0].1 > rows(0.41) && s[0].1 <= rows(0.42) + 1, "{s:?}");
         assert_eq!(s[1].1, d.volts.len());
+    }
+
+    /// A record of the current alone is judged by the motion behind it (`Data::motion`):
+    /// its weights are those of the tachometer's record of the same run, while the current
+    /// itself, mostly V/R, spreads too little to mark the rattling burst.
+    #[test]
+    fn a_current_record_is_judged_by_its_motion() {
+        let mut p = REFERENCE;
+        p.sample_period_s = H;
+        let segments = [
+            (0.1, 0.0, 0.0),
+            (0.3, 10.0, 15.0),
+            (0.1, 0.0, 0.0),
+            (0.3, 10.0, 250.0),
+        ];
+        let tach = record(&segments, &p);
+        let mut current = tach.clone();
+        current.output = "current_a".to_string();
+        current.y = calibrate::output(&p, &current).unwrap();
+        let (a, b) = (assess(&p, &tach), assess(&p, &current));
+        assert_eq!(a.weight, b.weight);
+        assert!(a.excluded_share > 0.2, "{}", a.excluded_share);
+        let own = calibrate::output(&p, &current).unwrap();
+        let raw = assess_around(&p, &current, &Settings::default(), &own);
+        assert!(
+            raw.excluded_share < 0.5 * a.excluded_share,
+            "{} {}",
+            raw.excluded_share,
+            a.excluded_share
+        );
     }
 
     #[test]

@@ -571,7 +571,6 @@ impl<'a> Ctx<'a> {
         c > self.opts.poor_ratio.powi(2) * self.floor(data)
     }
 
-    /// The validation record weighted by its predictability under `p`.
     /// Whether the records can show effect `e` at all: an error of a sensor
     /// ([`Effect::sensor_column`]) only where some record has that sensor's output.
     fn shows(&self, e: Effect) -> bool {
@@ -579,6 +578,18 @@ impl<'a> Ctx<'a> {
             .is_none_or(|col| self.data.iter().any(|d| d.measured().contains(&col)))
     }
 
+    /// The outputs some record fits (each once, in the records' order).
+    fn measured(&self) -> Vec<&str> {
+        let mut out: Vec<&str> = Vec::new();
+        for m in self.data.iter().flat_map(|d| d.measured()) {
+            if !out.contains(&m) {
+                out.push(m);
+            }
+        }
+        out
+    }
+
+    /// The validation record weighted by its predictability under `p`.
     fn val_weighted(&self, p: &ActuatorParams) -> Option<Data> {
         self.validation
             .map(|v| weigh_one(p, v, self.opts.predictability))
@@ -697,7 +708,7 @@ fn diagnose_records(
     };
 
     let mut knobs = match &opts.fit {
-        None => calibrate::default_knobs(&nominal, max_v),
+        None => calibrate::default_knobs_measuring(&nominal, max_v, &cx.measured()),
         Some(names) => {
             let mut ks = Vec::new();
             for param in fittable(file_params, names)? {
