@@ -797,8 +797,11 @@ fn diagnose_records(
     'search: loop {
         while steps.len() < opts.max_steps
             && rounds < 2 * opts.max_steps + 2
-            && cx.material(cur.cost, &wdata)
+            && (cx.material(cur.cost, &wdata) || (rounds == 0 && wants_damping(&cur)))
         {
+            // Below the material line the one candidate is the damping the fit took to the
+            // top of its background range.
+            let damping_only = !cx.material(cur.cost, &wdata);
             rounds += 1;
             // The rows a search from afar can use, under the current fit: a candidate's refit
             // searches there and is polished and judged on the fine rows.
@@ -830,6 +833,7 @@ fn diagnose_records(
                 .candidates
                 .iter()
                 .filter(|&&c| cx.shows(c))
+                .filter(|&&c| !damping_only || background(c))
                 .filter(|&&c| cur.params.effects.get(c) == 0.0 || background(c))
                 .map(|&c| (c, calibrate::knob(&cur.params, Param::Effect(c), max_v)))
                 .collect();
@@ -1353,6 +1357,19 @@ fn finished(
             rejected: out.rejected,
         },
     )
+}
+
+/// Whether `fit` took a background quantity (the mesh damping, [`Knob::floor_ok`]) to the
+/// top of its range ([`calibrate::at_bounds`]): the record wants more of it than every gear
+/// train has, and the search tries it as an effect even when the residual is below the
+/// material line (the report says so as well). On the foreign suite's mesh_damping/1 and /2
+/// stripped to the current, the background stopped at 2e-2 for the unit's 7.7e-2 with the
+/// fit at 1.12 and 1.15 times its floor, and nothing was tried.
+fn wants_damping(fit: &Fit) -> bool {
+    let top = calibrate::at_bounds(fit);
+    fit.knobs
+        .iter()
+        .any(|k| k.floor_ok && top.iter().any(|t| t == k.name()))
 }
 
 /// The outcome of a pass: the final analysis and verdict of the model found.
