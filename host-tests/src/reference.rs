@@ -414,16 +414,8 @@ impl Reference {
     /// Tachometer (V) and load angle (rad) records for a voltage record, in the convention of
     /// [`Reference::run_tach`] (`volts.len() + 1` rows each).
     pub fn run_tach_and_angle(&mut self, volts: &[f64]) -> (Vec<f64>, Vec<f64>) {
-        let mut tach = Vec::with_capacity(volts.len() + 1);
-        let mut angle = Vec::with_capacity(volts.len() + 1);
-        tach.push(self.tach());
-        angle.push(self.load_angle());
-        for &v in volts {
-            self.step(v);
-            tach.push(self.tach());
-            angle.push(self.load_angle());
-        }
-        (tach, angle)
+        let run = self.run_sensors(volts);
+        (run.tach, run.angle)
     }
 }
 

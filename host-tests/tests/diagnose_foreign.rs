@@ -473,18 +473,12 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
         };
         // The base with a background quantity (the mesh damping) at the top of its range:
         // `diagnose` then tries it as an effect even below the material line.
-        let background_top = |f: &calibrate::Fit| {
-            let top = calibrate::at_bounds(f);
-            f.knobs
-                .iter()
-                .any(|k| k.floor_ok && top.iter().any(|t| t == k.name()))
-        };
         eprintln!(
             "    residual {} (robust x{:.2}); background at its top: base {}, final {}; validation in fit {}; residual/repeating per record {:?}, held-out validation {}; coherent/other response {:?}",
             out.residual.name(),
             out.robust_floor_ratio,
-            background_top(&out.base),
-            background_top(&out.final_fit),
+            calibrate::background_at_top(&out.base),
+            calibrate::background_at_top(&out.final_fit),
             out.validation_in_fit.is_some(),
             out.repeating.iter().map(rep).collect::<Vec<_>>(),
             rep(&out.validation_repeating),

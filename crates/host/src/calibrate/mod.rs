@@ -211,6 +211,15 @@ pub fn at_bounds(fit: &Fit) -> Vec<String> {
         .collect()
 }
 
+/// Whether `fit` took a background quantity (the mesh damping, [`Knob::floor_ok`]) to the
+/// top of its range ([`at_bounds`]): the record wants more of it than every gear train has.
+pub fn background_at_top(fit: &Fit) -> bool {
+    let top = at_bounds(fit);
+    fit.knobs
+        .iter()
+        .any(|k| k.floor_ok && top.iter().any(|t| t == k.name()))
+}
+
 /// Pairs of knobs whose estimates correlate beyond `limit` in magnitude: what the data
 /// cannot separate.
 pub fn inseparable(fit: &Fit, limit: f64) -> Vec<(String, String, f64)> {

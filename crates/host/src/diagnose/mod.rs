@@ -575,7 +575,7 @@ impl<'a> Ctx<'a> {
     /// ([`Effect::sensor_column`]) only where some record has that sensor's output.
     fn shows(&self, e: Effect) -> bool {
         e.sensor_column()
-            .is_none_or(|col| self.data.iter().any(|d| d.measured().contains(&col)))
+            .is_none_or(|col| self.measured().contains(&col))
     }
 
     /// The outputs some record fits (each once, in the records' order).
@@ -797,10 +797,14 @@ fn diagnose_records(
     'search: loop {
         while steps.len() < opts.max_steps
             && rounds < 2 * opts.max_steps + 2
-            && (cx.material(cur.cost, &wdata) || (rounds == 0 && wants_damping(&cur)))
+            && (cx.material(cur.cost, &wdata)
+                || (rounds == 0 && calibrate::background_at_top(&cur)))
         {
             // Below the material line the one candidate is the damping the fit took to the
-            // top of its background range.
+            // top of its background range (the report says so as well): on the foreign
+            // suite's mesh_damping/1 and /2 stripped to the current, the background stopped
+            // at 2e-2 for the unit's 7.7e-2 with the fit at 1.12 and 1.15 times its floor,
+            // and nothing was tried.
             let damping_only = !cx.material(cur.cost, &wdata);
             rounds += 1;
             // The rows a search from afar can use, under the current fit: a candidate's refit
@@ -1357,19 +1361,6 @@ fn finished(
             rejected: out.rejected,
         },
     )
-}
-
-/// Whether `fit` took a background quantity (the mesh damping, [`Knob::floor_ok`]) to the
-/// top of its range ([`calibrate::at_bounds`]): the record wants more of it than every gear
-/// train has, and the search tries it as an effect even when the residual is below the
-/// material line (the report says so as well). On the foreign suite's mesh_damping/1 and /2
-/// stripped to the current, the background stopped at 2e-2 for the unit's 7.7e-2 with the
-/// fit at 1.12 and 1.15 times its floor, and nothing was tried.
-fn wants_damping(fit: &Fit) -> bool {
-    let top = calibrate::at_bounds(fit);
-    fit.knobs
-        .iter()
-        .any(|k| k.floor_ok && top.iter().any(|t| t == k.name()))
 }
 
 /// The outcome of a pass: the final analysis and verdict of the model found.
