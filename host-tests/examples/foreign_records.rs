@@ -6,13 +6,14 @@
 //!
 //! ```text
 //! cargo run --release -p geared-servo-host-tests --example foreign_records -- DIR \
-//!     [--kind clean|motor_viscous|...|pair|second_mode] [--draw N] [--seconds S] [--angle-only | --current-only]
+//!     [--kind clean|motor_viscous|...|pair|second_mode] [--draw N] [--seconds S] [--angle-only | --current-only | --with-current]
 //! ```
 //! `--seconds` sets the length of the estimation record (the stepped sine gets as many
 //! 0.3 s bursts with 0.1 s rests as fit, 10–300 Hz; default 8.8 s): 20 gives the benchmark
 //! record "diagnose on 20 s of 2 kHz data with all candidates". `--angle-only`: the records
 //! carry the load angle alone (an output encoder or potentiometer, no tachometer);
-//! `--current-only`: the armature current alone (a current sense resistor). Then, e.g.:
+//! `--current-only`: the armature current alone (a current sense resistor); `--with-current`:
+//! the bench's outputs and the armature current too. Then, e.g.:
 //! `geared-servo diagnose --params DIR/file.toml --data DIR/estimation.csv --validate DIR/validation.csv`.
 
 use geared_servo_host::params_file;
@@ -45,7 +46,7 @@ fn run() -> Result<(), String> {
     let mut draw = 0u64;
     let mut seconds: Option<f64> = None;
     let mut sensors = Sensors::Bench;
-    let usage = "usage: foreign_records DIR [--kind NAME] [--draw N] [--seconds S] [--angle-only | --current-only]";
+    let usage = "usage: foreign_records DIR [--kind NAME] [--draw N] [--seconds S] [--angle-only | --current-only | --with-current]";
     while let Some(a) = args.next() {
         let mut value = |what: &str| {
             args.next()
@@ -75,6 +76,7 @@ fn run() -> Result<(), String> {
             }
             "--angle-only" => sensors = Sensors::AngleOnly,
             "--current-only" => sensors = Sensors::CurrentOnly,
+            "--with-current" => sensors = Sensors::WithCurrent,
             "-h" | "--help" => {
                 println!("{usage}");
                 return Ok(());

@@ -576,14 +576,24 @@ pub enum Sensors {
     /// The armature current alone: what a drive with a current sense resistor and no speed
     /// sensor gives (`GS_FOREIGN_OUTPUTS=current_a`).
     CurrentOnly,
+    /// The bench's outputs ([`Sensors::Bench`], their noise the same samples) and the
+    /// armature current too: a bench that also logs the drive's current sense
+    /// (`GS_FOREIGN_OUTPUTS=tach_voltage_v,current_a`).
+    WithCurrent,
 }
 
 impl Sensors {
-    /// The sensor set named by its one column (`load_angle_deg`, `current_a`).
-    pub fn from_column(c: &str) -> Option<Sensors> {
-        match c {
-            "load_angle_deg" => Some(Sensors::AngleOnly),
-            "current_a" => Some(Sensors::CurrentOnly),
+    /// The sensor set named by its columns, comma-separated (`load_angle_deg`,
+    /// `current_a`, `tach_voltage_v,current_a`; the bench's load angle on odd draws is not
+    /// named).
+    pub fn from_columns(c: &str) -> Option<Sensors> {
+        let mut cols: Vec<&str> = c.split(',').map(str::trim).collect();
+        cols.sort_unstable();
+        match cols.as_slice() {
+            ["load_angle_deg"] => Some(Sensors::AngleOnly),
+            ["current_a"] => Some(Sensors::CurrentOnly),
+            ["tach_voltage_v"] => Some(Sensors::Bench),
+            ["current_a", "tach_voltage_v"] => Some(Sensors::WithCurrent),
             _ => None,
         }
     }
@@ -605,9 +615,8 @@ impl Making {
     ///
     /// # Panics
     /// When `GS_FOREIGN_SECONDS` is set and not a number of seconds, or
-    /// `GS_FOREIGN_OUTPUTS` is set and not `load_angle_deg` or `current_a` (the records
-    /// with that column alone, [`Sensors`]): a development switch mistyped must not run the
-    /// standard records unnoticed.
+    /// `GS_FOREIGN_OUTPUTS` is set and names no sensor set ([`Sensors::from_columns`]): a
+    /// development switch mistyped must not run the standard records unnoticed.
     pub fn from_env() -> Making {
         let mut making = Making::default();
         if let Ok(s) = std::env::var("GS_FOREIGN_SECONDS") {
@@ -618,8 +627,8 @@ impl Making {
             making.stepped_sine = SteppedSine::lasting(secs);
         }
         if let Ok(s) = std::env::var("GS_FOREIGN_OUTPUTS") {
-            making.sensors = Sensors::from_column(s.trim()).expect(
-                "GS_FOREIGN_OUTPUTS: `load_angle_deg` (the angle alone) or `current_a` (the current alone)",
+            making.sensors = Sensors::from_columns(&s).expect(
+                "GS_FOREIGN_OUTPUTS: `load_angle_deg` (the angle alone), `current_a` (the current alone) or `tach_voltage_v,current_a` (the bench and the current)",
             );
         }
         making
@@ -697,9 +706,9 @@ pub fn reference_sensors(
 }
 
 /// A measured record of the unit: the clean run plus seeded noise, with the outputs
-/// `sensors` says (with [`Sensors::Bench`], the load angle too when `angle`). The
-/// tachometer's and the current's noise are [`NOISE_REL`] of their RMS, the angle's
-/// [`ANGLE_NOISE_DEG`].
+/// `sensors` says (with [`Sensors::Bench`] and [`Sensors::WithCurrent`], the load angle too
+/// when `angle`). The tachometer's and the current's noise are [`NOISE_REL`] of their RMS,
+/// the angle's [`ANGLE_NOISE_DEG`].
 ///
 /// Returns the record, the norm of the noise in its first output as `diagnose` fits it,
 /// and that output without noise (with the angle alone: the angle's steps from sample to
@@ -735,7 +744,7 @@ fn measure(
         Normal::new(0.0, ANGLE_NOISE_DEG).map_err(|e| HostError::other(e.to_string()))?;
     let (mut outputs, mut e2, mut first_clean) = if sensors == Sensors::CurrentOnly {
         let (i, e2) = noisy(&current, &mut noise)?;
-        (vec![("current_a".to_string(), i)], e2, current)
+        (vec![("current_a".to_string(), i)], e2, current.clone())
     } else {
         let (tach_v, e2) = noisy(&tach, &mut noise)?;
         let outputs = if sensors == Sensors::AngleOnly {
@@ -746,7 +755,8 @@ fn measure(
         (outputs, e2, tach)
     };
     let angle_only = sensors == Sensors::AngleOnly;
-    if (angle && sensors == Sensors::Bench) || angle_only {
+    let bench = matches!(sensors, Sensors::Bench | Sensors::WithCurrent);
+    if (angle && bench) || angle_only {
         let clean_deg: Vec<f64> = theta.iter().map(|a| a.to_degrees()).collect();
         let e: Vec<f64> = clean_deg
             .iter()
@@ -758,6 +768,11 @@ fn measure(
             first_clean = calibrate::steps_of(&clean_deg);
         }
         outputs.push(("load_angle_deg".to_string(), deg));
+    }
+    if sensors == Sensors::WithCurrent {
+        // Drawn after the bench's, so the tachometer and the angle are the bench record's.
+        let (i, _) = noisy(&current, &mut noise)?;
+        outputs.push(("current_a".to_string(), i));
     }
     let rec = Record {
         metadata: vec![(
