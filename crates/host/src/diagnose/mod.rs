@@ -60,8 +60,8 @@ use crate::repeat::{Coherent, Repeating};
 use crate::residual::{self, Analysis};
 use geared_servo::{ActuatorParams, Effect};
 use settle::{
-    better_on_common, common_rows, first_floor_cost, floor_cost, settle, settle_seeded, weigh,
-    weigh_one, weigh_smooth,
+    better_on_common, common_rows, dissipation_from_start, first_floor_cost, floor_cost, settle,
+    settle_seeded, weigh, weigh_one, weigh_smooth,
 };
 
 /// Share of the current fit's cost above the noise floor that the best of the linear
@@ -737,7 +737,14 @@ fn diagnose_records(
                 || settle_seeded(&start, &knobs, data, opts.predictability, true, 0),
                 || settle_seeded(&start, &knobs, data, opts.predictability, true, 1),
             );
-            let (mut base, wdata, _) = better_on_common(a, b, data);
+            let (best, wbest, _) = better_on_common(a, b, data);
+            // Both may follow the friction torque's sum and miss its split: one more, local,
+            // settle with the dissipation set back to the start (settle::dissipation_from_start).
+            let split = dissipation_from_start(&start, &best.params, &knobs);
+            let (mut again, wagain) = settle(&split, &knobs, data, opts.predictability, false);
+            again.moved = best.moved;
+            let (mut base, wdata, took) = better_on_common((best, wbest), (again, wagain), data);
+            log::debug!("base: the settle from the start's dissipation taken: {took}");
             base.cost_start = calibrate::cost(&nominal, &wdata);
             (base.clone(), wdata, base, Vec::new())
         }
