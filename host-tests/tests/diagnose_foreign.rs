@@ -938,7 +938,8 @@ fn the_base_finds_how_the_friction_splits_between_motor_and_load() {
         max_steps: 0,
         ..Options::default()
     };
-    let out = diagnose::diagnose(&c.file, std::slice::from_ref(&c.estimation), None, &opts).unwrap();
+    let out =
+        diagnose::diagnose(&c.file, std::slice::from_ref(&c.estimation), None, &opts).unwrap();
     let p = &out.base.params;
     eprintln!("base vs the unit: {}", fmt_base(&c, p));
     for k in [Param::MotorFriction, Param::LoadFriction] {
