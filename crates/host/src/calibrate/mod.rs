@@ -211,6 +211,16 @@ pub fn at_bounds(fit: &Fit) -> Vec<String> {
         .collect()
 }
 
+/// The knobs `after` has at a bound ([`at_bounds`]) that `before` does not: a refit that
+/// runs a knob into its bound is bending to what the model lacks.
+pub fn new_bounds(before: &Fit, after: &Fit) -> Vec<String> {
+    let had = at_bounds(before);
+    at_bounds(after)
+        .into_iter()
+        .filter(|n| !had.contains(n))
+        .collect()
+}
+
 /// Whether `fit` took a background quantity (the mesh damping, [`Knob::floor_ok`]) to the
 /// top of its range ([`at_bounds`]): the record wants more of it than every gear train has.
 pub fn background_at_top(fit: &Fit) -> bool {

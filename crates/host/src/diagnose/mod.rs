@@ -826,8 +826,12 @@ fn diagnose_records(
             // A candidate must beat the model without it refitted the same way (the search is
             // stochastic: a refit that merely finds a better point of the base set must not be
             // credited to an effect).
+            // Taken when better, unless it runs a knob into a bound the model is not at (on
+            // the real record the background damping went to its top): a better point of
+            // the base set that bends it is not a calibration (the rule of fine_search and
+            // of a step, judge).
             let null = search::null_refit(&cur, &rows);
-            if null.cost < cur.cost {
+            if null.cost < cur.cost && calibrate::new_bounds(&cur, &null).is_empty() {
                 adopt(&mut cur, null);
             }
             cx.trace(format_args!(
@@ -1204,6 +1208,11 @@ fn remove_step(
 /// candidates see. The settled model with its rows when it is better, else `None`.
 fn resettle(cx: &Ctx, cur: &Fit, wdata: &[Data], data: &[Data]) -> Option<(Fit, Vec<Data>)> {
     let (g, w) = cx.settle(&cur.params, &cur.knobs, true);
+    // Nor one that runs a knob into a bound the model is not at (the rule of the null
+    // refit, of fine_search and of a step).
+    if !calibrate::new_bounds(cur, &g).is_empty() {
+        return None;
+    }
     // A model that misses its own predictable rows grossly (NRMSE above `poor_ratio` times
     // their floor) where the settle from it follows its own is stuck: the rows both keep
     // leave out the very rows it misses, and it can win there (second_mode/1 of the foreign
@@ -1322,14 +1331,23 @@ struct Found {
 
 /// The last step of a diagnosis: a search at the scale of the calibration's own precision on
 /// the rows the model is polished, judged and reported on ([`settle::fine_search`]), kept
-/// when it is better on the rows both keep ([`better_on_common`]). Returns the better fit
-/// with its own rows, or `None` when the model stands.
+/// when it is better on the rows both keep ([`better_on_common`]) and needs no knob at a
+/// bound ([`calibrate::at_bounds`]) that `cur` is not at. A search at that scale refines the
+/// model; one that runs a knob into its bound is following what the model lacks (the real
+/// record's creep took the background damping to its top), and a step that does so is
+/// refused for the same reason ([`judge`]). Returns the better fit with its own rows, or
+/// `None` when the model stands.
 fn fine_search(cx: &Ctx, cur: &Fit, wdata: &[Data]) -> Result<Option<(Fit, Vec<Data>)>, HostError> {
     let found = settle::fine_search(cur, wdata, cx.data, cx.opts.predictability);
     cx.trace(format_args!("fine search"))?;
     let Some(found) = found else {
         return Ok(None);
     };
+    let new = calibrate::new_bounds(cur, &found.0);
+    if !new.is_empty() {
+        log::debug!("fine search: not taken, it needs {new:?} at a bound");
+        return Ok(None);
+    }
     let (fit, w, better) = better_on_common((cur.clone(), wdata.to_vec()), found, cx.data);
     Ok(better.then_some((fit, w)))
 }
