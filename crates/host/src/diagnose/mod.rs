@@ -1565,6 +1565,38 @@ mod tests {
         assert_eq!(r[0].effects.mesh_damping, bg.hi);
     }
 
+    /// [`calibrate::new_bounds`], the rule of the resettle, the null refit and the fine
+    /// search: the knobs a refit takes to a bound the model before it was not at. The
+    /// background damping at its top counts (the real record's resettle took it there), at
+    /// its floor it does not (a gear train may have almost none); a bound already held is
+    /// not new.
+    #[test]
+    fn a_refit_is_known_by_the_bounds_it_runs_into() {
+        let file = calibrate::with_measured_stiffness(&REFERENCE).unwrap();
+        let load = calibrate::knob(&file, Param::LoadInertia, 5.0);
+        let bg = calibrate::background_damping_knob(&file, 5.0);
+        let fit = |values: Vec<f64>| Fit {
+            params: file,
+            std_errors: vec![0.0; values.len()],
+            values,
+            knobs: vec![load.clone(), bg.clone()],
+            correlations: Vec::new(),
+            cost_start: 1.0,
+            cost: 1.0,
+            moved: 0.0,
+            evaluations: 0,
+        };
+        let inside = fit(vec![file.load.inertia_kg_m2, (bg.lo * bg.hi).sqrt()]);
+        let top = fit(vec![load.hi, bg.hi]);
+        let floor = fit(vec![load.lo, bg.lo]);
+        let names = |ks: &[&Knob]| ks.iter().map(|k| k.name().to_string()).collect::<Vec<_>>();
+        assert!(calibrate::new_bounds(&inside, &inside).is_empty());
+        assert_eq!(calibrate::new_bounds(&inside, &top), names(&[&load, &bg]));
+        assert!(calibrate::new_bounds(&top, &top).is_empty());
+        assert_eq!(calibrate::new_bounds(&inside, &floor), names(&[&load]));
+        assert!(calibrate::new_bounds(&top, &inside).is_empty());
+    }
+
     /// [`Provisional::refuted`]'s measure: pair/12 of the foreign suite, validation NRMSE
     /// 0.26 before the provisional step and 0.022 after the second at a floor of 0.020, is
     /// all but fully explained; a model worse than the one before, or one already at the
