@@ -283,9 +283,8 @@ fn effective_samples(p: &ActuatorParams, data: &[Data]) -> f64 {
 }
 
 /// Judges each candidate's refits (`local`, and the global ones of `alts` by candidate)
-/// against the current model `cur` (on its predictable rows `wdata`); `cur_bounds`: the
-/// current fit's parameters at a bound. Returns the candidates best first, each with its
-/// verdict.
+/// against the current model `cur` (on its predictable rows `wdata`). Returns the candidates
+/// best first, each with its verdict.
 ///
 /// A candidate is a model of its own, with its own predictable rows: polished there, and
 /// compared with the current model on the rows both keep (a model must not be judged on
@@ -298,7 +297,6 @@ pub(super) fn judge(
     wdata: &[Data],
     local: Vec<Refit>,
     alts: Vec<Vec<Point>>,
-    cur_bounds: &[String],
 ) -> Vec<Judged> {
     let opts = cx.opts;
     let cur_n_eff = effective_samples(&cur.params, wdata);
@@ -455,9 +453,9 @@ pub(super) fn judge(
             .filter(|k| k.floor_ok)
             .map(|k| k.name())
             .collect();
-        let new_bounds: Vec<String> = calibrate::at_bounds(&fit)
+        let new_bounds: Vec<String> = calibrate::new_bounds(cur, &fit)
             .into_iter()
-            .filter(|n| !cur_bounds.contains(n) && !background_names.contains(&n.as_str()))
+            .filter(|n| !background_names.contains(&n.as_str()))
             .collect();
         // A background quantity released to its whole range that stays inside the
         // background's range is the background, not an effect.

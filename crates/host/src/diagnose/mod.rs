@@ -889,8 +889,8 @@ fn diagnose_records(
             // The file's values with the effects added so far: a second start when a missing
             // effect has dragged the current fit off (to a bound, or far above the floor).
             let from_file = restart_points(&start, &cur);
-            let cur_bounds = calibrate::at_bounds(&cur);
-            let starts: Vec<ActuatorParams> = if cur_poor || !cur_bounds.is_empty() {
+            let starts: Vec<ActuatorParams> = if cur_poor || !calibrate::at_bounds(&cur).is_empty()
+            {
                 std::iter::once(cur.params)
                     .chain(from_file.iter().copied())
                     .collect()
@@ -916,7 +916,7 @@ fn diagnose_records(
             for (a, m) in alts.iter_mut().zip(mirrors) {
                 a.extend(m);
             }
-            let judged = judge::judge(&cx, &cur, &wdata, local, alts, &cur_bounds);
+            let judged = judge::judge(&cx, &cur, &wdata, local, alts);
             cx.trace(format_args!("{pass}, round {rounds}: judged"))?;
             if log::log_enabled!(log::Level::Debug) {
                 for j in &judged {
