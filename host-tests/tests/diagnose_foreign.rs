@@ -925,26 +925,37 @@ fn a_record_of_the_current_alone_is_fitted_with_the_units_resistance() {
 /// with the background damping 5× the unit's mesh damping, a model that rattled much less
 /// than the unit and left a residual that the diagnosis called unexplained. The local
 /// settle from the file's dissipation (`settle::dissipation_from_start`) finds the unit's
-/// split. The estimation record alone, no effect searched. Records of the independent
-/// reference integrator, every parameter perturbed, rattle included.
+/// split. tach_offset/1 is the same unit with other noise draws (its tachometer error unseen
+/// without a tachometer): there the rows both settles keep could not tell the two apart
+/// (0.4 standard errors for the seeded one) and the seeded split (motor −75 %, load +88 %)
+/// was kept; a tie now goes to the split nearer the file's (`settle::better_or_nearer`).
+/// The estimation record alone, no effect searched. Records of the independent reference
+/// integrator, every parameter perturbed, rattle included.
 #[test]
 fn the_base_finds_how_the_friction_splits_between_motor_and_load() {
     let making = Making {
         sensors: Sensors::CurrentOnly,
         ..Making::default()
     };
-    let c = foreign::case_with(Kind::Clean, 1, &making).unwrap();
-    let opts = Options {
-        max_steps: 0,
-        ..Options::default()
-    };
-    let out =
-        diagnose::diagnose(&c.file, std::slice::from_ref(&c.estimation), None, &opts).unwrap();
-    let p = &out.base.params;
-    eprintln!("base vs the unit: {}", fmt_base(&c, p));
-    for k in [Param::MotorFriction, Param::LoadFriction] {
-        let x = calibrate::get(p, k) / calibrate::get(&c.truth, k);
-        assert!((x - 1.0).abs() < 0.3, "{} {x} of the unit's", k.name());
+    for kind in [Kind::Clean, Kind::Single(Effect::TachOffset)] {
+        let c = foreign::case_with(kind, 1, &making).unwrap();
+        let opts = Options {
+            max_steps: 0,
+            ..Options::default()
+        };
+        let out =
+            diagnose::diagnose(&c.file, std::slice::from_ref(&c.estimation), None, &opts).unwrap();
+        let p = &out.base.params;
+        eprintln!("{}: base vs the unit: {}", c.label(), fmt_base(&c, p));
+        for k in [Param::MotorFriction, Param::LoadFriction] {
+            let x = calibrate::get(p, k) / calibrate::get(&c.truth, k);
+            assert!(
+                (x - 1.0).abs() < 0.3,
+                "{}: {} {x} of the unit's",
+                c.label(),
+                k.name()
+            );
+        }
     }
 }
 

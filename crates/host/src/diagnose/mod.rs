@@ -60,8 +60,8 @@ use crate::repeat::{Coherent, Repeating};
 use crate::residual::{self, Analysis};
 use geared_servo::{ActuatorParams, Effect};
 use settle::{
-    better_on_common, common_rows, dissipation_from_start, first_floor_cost, floor_cost, settle,
-    settle_seeded, weigh, weigh_one, weigh_smooth,
+    better_on_common, better_or_nearer, common_rows, dissipation_from_start, first_floor_cost,
+    floor_cost, settle, settle_seeded, weigh, weigh_one, weigh_smooth,
 };
 
 /// Share of the current fit's cost above the noise floor that the best of the linear
@@ -743,7 +743,8 @@ fn diagnose_records(
             let split = dissipation_from_start(&start, &best.params, &knobs);
             let (mut again, wagain) = settle(&split, &knobs, data, opts.predictability, false);
             again.moved = best.moved;
-            let (mut base, wdata, took) = better_on_common((best, wbest), (again, wagain), data);
+            let (mut base, wdata, took) =
+                better_or_nearer((best, wbest), (again, wagain), data, &start, &knobs);
             log::debug!("base: the settle from the start's dissipation taken: {took}");
             base.cost_start = calibrate::cost(&nominal, &wdata);
             (base.clone(), wdata, base, Vec::new())
