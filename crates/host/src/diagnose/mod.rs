@@ -743,8 +743,15 @@ fn diagnose_records(
             let split = dissipation_from_start(&start, &best.params, &knobs);
             let (mut again, wagain) = settle(&split, &knobs, data, opts.predictability, false);
             again.moved = best.moved;
-            let (mut base, wdata, took) =
-                better_or_nearer((best, wbest), (again, wagain), data, &start, &knobs);
+            let (mut base, wdata, took) = better_or_nearer(
+                (best, wbest),
+                (again, wagain),
+                data,
+                &start,
+                &knobs,
+                &cx.sigma,
+                opts.material_ratio,
+            );
             log::debug!("base: the settle from the start's dissipation taken: {took}");
             base.cost_start = calibrate::cost(&nominal, &wdata);
             (base.clone(), wdata, base, Vec::new())
