@@ -487,14 +487,22 @@ mod tests {
                 *y += 0.02 * rms * e;
             }
             let d = std::slice::from_ref(&d);
-            let t = preference(&heavier, &lighter, d);
+            let t = preference(&heavier, &lighter, d).unwrap();
             if t.abs() >= TIE {
                 outside += 1;
             }
-            let t_far = preference(&unit, &far, d);
+            let t_far = preference(&unit, &far, d).unwrap();
             assert!(t_far > 3.0 * TIE, "a model 20 % off: {t_far}");
-            assert!(preference(&far, &unit, d) < -3.0 * TIE);
+            assert!(preference(&far, &unit, d).unwrap() < -3.0 * TIE);
+            // The same on each one's own rows (here every row): the farther is worse.
+            let u = own_difference(&unit, d, &far, d).unwrap();
+            assert!(u > TIE, "own rows: {u}");
         }
         assert!(outside <= 6, "{outside} of {draws} beyond ±{TIE}");
+        // Rows kept in fewer than MIN_BLOCKS blocks give no standard error.
+        let mut w = vec![0.0; clean.y.len()];
+        w[200..1800].iter_mut().for_each(|x| *x = 1.0);
+        let few = clean.with_weights(&w);
+        assert_eq!(preference(&unit, &far, std::slice::from_ref(&few)), None);
     }
 }
