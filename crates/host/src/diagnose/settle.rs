@@ -105,12 +105,16 @@ pub(super) fn dissipation_from_start(
     knobs: &[Knob],
 ) -> ActuatorParams {
     let mut p = *fit;
-    for k in knobs {
-        if k.floor_ok || matches!(k.param, Param::MotorFriction | Param::LoadFriction) {
-            calibrate::set(&mut p, k.param, calibrate::get(start, k.param));
-        }
+    for k in knobs.iter().filter(|k| is_dissipation(k)) {
+        calibrate::set(&mut p, k.param, calibrate::get(start, k.param));
     }
     p
+}
+
+/// The knobs [`dissipation_from_start`] sets back: both Coulomb frictions and the knobs that
+/// may sit at the floor (the background damping).
+fn is_dissipation(k: &Knob) -> bool {
+    k.floor_ok || matches!(k.param, Param::MotorFriction | Param::LoadFriction)
 }
 
 /// A search of `cur` at the scale of the calibration's own precision on its own rows `own`
@@ -342,15 +346,10 @@ const BLOCK_S: f64 = 0.1;
 /// ([`total_and_se`]): with fewer the scatter of the block sums says little.
 const MIN_BLOCKS: usize = 10;
 
-/// Sums over blocks of [`BLOCK_S`] of `f(a_k, b_k)` over the rows of `data` ([`Data`] as
+/// Sums over blocks of [`BLOCK_S`] of `v`, one value per row of `data` ([`Data`] as
 /// [`calibrate::residuals`] stacks it: record by record, each output's rows in turn), of the
-/// blocks with a row kept. `None` when `a` or `b` is not so stacked.
-fn block_sums(
-    data: &[Data],
-    a: &[f64],
-    b: &[f64],
-    f: impl Fn(f64, f64) -> f64,
-) -> Option<Vec<f64>> {
+/// blocks with a row kept. `None` when `v` is shorter than that.
+fn block_sums(data: &[Data], v: &[f64]) -> Option<Vec<f64>> {
     let mut sums = Vec::new();
     let mut at = 0;
     for d in data {
@@ -359,12 +358,12 @@ fn block_sums(
         for _ in 0..=d.extra.len() {
             for s in (0..n).step_by(blk) {
                 let e = (s + blk).min(n);
-                let (xa, xb) = (a.get(at + s..at + e)?, b.get(at + s..at + e)?);
+                let x = v.get(at + s..at + e)?;
                 if d.weight
                     .get(s..e)
                     .is_some_and(|w| w.iter().any(|w| *w > 0.0))
                 {
-                    sums.push(xa.iter().zip(xb).map(|(p, q)| f(*p, *q)).sum());
+                    sums.push(x.iter().sum());
                 }
             }
             at += n;
@@ -397,7 +396,12 @@ pub(super) fn preference(a: &ActuatorParams, b: &ActuatorParams, common: &[Data]
         calibrate::residuals(a, common),
         calibrate::residuals(b, common),
     );
-    let sums = block_sums(common, ra.as_slice(), rb.as_slice(), |p, q| q * q - p * p)?;
+    let v: Vec<f64> = ra
+        .iter()
+        .zip(rb.iter())
+        .map(|(p, q)| q * q - p * p)
+        .collect();
+    let sums = block_sums(common, &v)?;
     let (total, se) = total_and_se(&sums)?;
     (se > 0.0 && total.is_finite()).then_some(total / se)
 }
@@ -413,8 +417,8 @@ pub(super) fn own_difference(
     own_b: &[Data],
 ) -> Option<f64> {
     let one = |p: &ActuatorParams, own: &[Data]| {
-        let r = calibrate::residuals(p, own);
-        total_and_se(&block_sums(own, r.as_slice(), r.as_slice(), |x, _| x * x)?)
+        let v: Vec<f64> = calibrate::residuals(p, own).iter().map(|x| x * x).collect();
+        total_and_se(&block_sums(own, &v)?)
     };
     let ((ca, sa), (cb, sb)) = (one(a, own_a)?, one(b, own_b)?);
     let se = (sa * sa + sb * sb).sqrt();
@@ -430,7 +434,7 @@ pub(super) fn dissipation_distance(
 ) -> f64 {
     knobs
         .iter()
-        .filter(|k| k.floor_ok || matches!(k.param, Param::MotorFriction | Param::LoadFriction))
+        .filter(|k| is_dissipation(k))
         .map(|k| {
             (k.to_z(calibrate::get(p, k.param)) - k.to_z(calibrate::get(start, k.param))).powi(2)
         })
@@ -447,10 +451,10 @@ mod tests {
 
     /// [`preference`] in standard errors: on a record of a unit with noise of 2 % of its RMS,
     /// correlated from row to row (a standard error that took the rows as independent would
-    /// be some 4× too small here), two models as far from the unit on either side (load inertia ±1 %) are a
-    /// tie in expectation, and their preference falls beyond ±[`TIE`] in about 5 % of noise
-    /// draws (were the standard error too small, in most); a model 20 % off is told from
-    /// the unit in every draw.
+    /// be some 4× too small here), two models as far from the unit on either side (load
+    /// inertia ±1 %) are a tie in expectation, and their preference falls beyond ±[`TIE`] in
+    /// about 5 % of noise draws (were the standard error too small, in most); a model 20 %
+    /// off is told from the unit in every draw.
     #[test]
     fn two_fits_are_a_tie_within_two_standard_errors_of_their_cost_difference() {
         let h = 5e-4;
