@@ -492,6 +492,17 @@ impl Outcome {
             );
         }
         if self.unexplained {
+            // Unexplained with the predictable rows near their floor: the residual comes
+            // back period after period over rows the assessment weighted out (Ctx::residual_kind).
+            let plain_ratio = (self.final_fit.cost / self.floor_cost).sqrt();
+            if plain_ratio <= self.material_ratio {
+                let _ = writeln!(
+                    s,
+                    "UNEXPLAINED: the rows kept as predictable are near their floor ({plain_ratio:.2}x, at most {}x), but over every row most of the residual repeats with the command (above), enough alone to make the fit poor: a deterministic response the model lacks, in spans the predictability assessment weighted out",
+                    self.material_ratio
+                );
+                return s;
+            }
             let (lo, hi, sh) = f.dominant_band();
             let _ = writeln!(
                 s,
@@ -610,7 +621,7 @@ fn repeating_line(what: &str, r: Option<Repeating>) -> Option<String> {
         format!(
             "{:.0} % of what exceeds the noise: {}",
             100.0 * r.repeating_mean_square / excess,
-            if r.repeating_mean_square > 0.5 * excess {
+            if r.mostly_repeats() {
                 "mostly a deterministic response the model lacks"
             } else {
                 "mostly what does not repeat (noise, rattle)"

@@ -108,6 +108,16 @@ pub struct Repeating {
     pub rows: usize,
 }
 
+impl Repeating {
+    /// The repeating part is the majority ([`COHERENT_MAJORITY`]) of what the residual's
+    /// mean square exceeds the noise's by: a response the model lacks, not rattle, which
+    /// does not come back period after period (the summary's reading of the line).
+    pub fn mostly_repeats(&self) -> bool {
+        let excess = self.mean_square - self.noise_sigma * self.noise_sigma;
+        excess > 0.0 && self.repeating_mean_square > COHERENT_MAJORITY * excess
+    }
+}
+
 /// The repeating part of the residual `e` (measured less modelled, one per row) of a record
 /// whose command is `volts`, sampled every `h` seconds, with noise of standard deviation
 /// `sigma` (carried for the report), over the rows of weight `w` at least one half (every row when
