@@ -47,6 +47,14 @@ fn fit_json(f: &Fit) -> Value {
 }
 
 impl Outcome {
+    /// Unexplained although the rows kept as predictable sit within
+    /// [`Outcome::material_ratio`] of their floor: the residual that repeats with the command
+    /// over rows the predictability assessment weighted out made it so
+    /// (`Ctx::residual_kind`).
+    pub fn unexplained_where_weighted_out(&self) -> bool {
+        self.unexplained && (self.final_fit.cost / self.floor_cost).sqrt() <= self.material_ratio
+    }
+
     /// The calibrated parameter set, at the sample period of the file the diagnosis started
     /// from (`start`): what `diagnose --out` writes to `calibrated.toml`.
     pub fn calibrated(&self, start: &ActuatorParams) -> ActuatorParams {
@@ -194,6 +202,12 @@ impl Outcome {
             insert(f, "nrmse_all_rows", json!(self.final_nrmse_all_rows));
         }
         if self.unexplained {
+            let rows = if self.unexplained_where_weighted_out() {
+                "weighted_out"
+            } else {
+                "kept"
+            };
+            insert(&mut v, "unexplained_rows", json!(rows));
             let (lo, hi, sh) = self.final_analysis.dominant_band();
             insert(&mut v, "unexplained_band_hz", json!([lo, hi]));
             insert(&mut v, "unexplained_band_share", json!(sh));
@@ -494,8 +508,8 @@ impl Outcome {
         if self.unexplained {
             // Unexplained with the predictable rows near their floor: the residual comes
             // back period after period over rows the assessment weighted out (Ctx::residual_kind).
-            let plain_ratio = (self.final_fit.cost / self.floor_cost).sqrt();
-            if plain_ratio <= self.material_ratio {
+            if self.unexplained_where_weighted_out() {
+                let plain_ratio = (self.final_fit.cost / self.floor_cost).sqrt();
                 let _ = writeln!(
                     s,
                     "UNEXPLAINED: the rows kept as predictable are near their floor ({plain_ratio:.2}x, at most {}x), but over every row most of the residual repeats with the command (above), enough alone to make the fit poor: a deterministic response the model lacks, in spans the predictability assessment weighted out",
