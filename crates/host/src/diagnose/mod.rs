@@ -380,8 +380,16 @@ pub fn diagnose_with(
     else {
         return Ok(out);
     };
+    // Over every row of the validation record, the residual's RMS and its repeating part's,
+    // in noise levels (for the trace: whether what sends the diagnosis on is rattle).
+    let over_every_row = out.validation_repeating.map(|r| {
+        (
+            r.mean_square.sqrt() / r.noise_sigma,
+            r.repeating_mean_square.sqrt() / r.noise_sigma,
+        )
+    });
     log::debug!(
-        "validation after the first pass: NRMSE {after:.4}, floor {v_floor:.4} (a second pass above x{})",
+        "validation after the first pass: NRMSE {after:.4}, floor {v_floor:.4} (a second pass above x{}); over every row, residual and repeating part in noise levels: {over_every_row:.2?}",
         opts.material_ratio
     );
     // The model the first pass reports is the finished one (the fine search moves it, and
