@@ -374,27 +374,19 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
         // (Both records are sampled at foreign::SAMPLE_PERIOD_S.)
         let mut truth = calibrate::with_measured_stiffness(&c.truth).unwrap();
         truth.sample_period_s = c.estimation.sample_period_s;
+        // The estimation record on diagnose's predictable rows as diagnose sees it: every
+        // output it has, each in units of its own floor (`calibrate::Channel`, the load
+        // angle's with the file's gap). A record with several outputs is fitted on all of
+        // them, so its bar compares that cost, final against truth on the same rows
+        // (`calibrate::nrmse_all`, the first output's NRMSE when it has one); the first
+        // output's ratio is reported beside it.
         let est_rows = c
-            .estimation
-            .with_weights(&out.weights.first().cloned().unwrap_or_default());
-        let truth_pred = calibrate::nrmse(&truth, &est_rows);
-        // A record with several outputs is fitted on all of them, each in units of its own
-        // floor (`calibrate::Channel`, the load angle's with the file's gap, as diagnose
-        // sees it): its bar compares that cost, final against truth on the same rows
-        // (`calibrate::nrmse_all`); the first output's ratio is reported beside it. One
-        // output: the two are the same.
-        let est_all = c
             .estimation
             .with_backlash(c.file.backlash_deg)
             .with_weights(&out.weights.first().cloned().unwrap_or_default());
-        let multi = !est_all.extra.is_empty();
-        let score = |p: &ActuatorParams| {
-            if multi {
-                calibrate::nrmse_all(p, &est_all)
-            } else {
-                calibrate::nrmse(p, &est_rows)
-            }
-        };
+        let truth_pred = calibrate::nrmse(&truth, &est_rows);
+        let multi = !est_rows.extra.is_empty();
+        let score = |p: &ActuatorParams| calibrate::nrmse_all(p, &est_rows);
         let (fin_all, truth_all) = (score(&out.final_fit.params), score(&truth));
         // A hidden effect the records cannot show, rightly not claimed: the final model has no
         // such effect, and the truth (which has it) is out of its reach; the bar is then the

@@ -52,7 +52,13 @@ impl Outcome {
     /// over rows the predictability assessment weighted out made it so
     /// (`Ctx::residual_kind`).
     pub fn unexplained_where_weighted_out(&self) -> bool {
-        self.unexplained && (self.final_fit.cost / self.floor_cost).sqrt() <= self.material_ratio
+        self.unexplained && self.plain_floor_ratio() <= self.material_ratio
+    }
+
+    /// The final fit's NRMSE over the floor on its rows, plainly (not under the robust
+    /// window loss): the root of their costs' ratio.
+    fn plain_floor_ratio(&self) -> f64 {
+        (self.final_fit.cost / self.floor_cost).sqrt()
     }
 
     /// The calibrated parameter set, at the sample period of the file the diagnosis started
@@ -498,7 +504,7 @@ impl Outcome {
         );
         if self.residual == ResidualKind::FewWindows {
             let material = self.material_ratio;
-            let plain_ratio = (self.final_fit.cost / self.floor_cost).sqrt();
+            let plain_ratio = self.plain_floor_ratio();
             let _ = writeln!(
                 s,
                 "residual above the floor in a few windows only: NRMSE {:.2}x the floor, {:.2}x under the robust window loss (at most {material}x): not spread over the record, so not claimed as a missing effect; most likely spans where the unit rattles on another response than the model (see time.svg)",
@@ -509,7 +515,7 @@ impl Outcome {
             // Unexplained with the predictable rows near their floor: the residual comes
             // back period after period over rows the assessment weighted out (Ctx::residual_kind).
             if self.unexplained_where_weighted_out() {
-                let plain_ratio = (self.final_fit.cost / self.floor_cost).sqrt();
+                let plain_ratio = self.plain_floor_ratio();
                 let _ = writeln!(
                     s,
                     "UNEXPLAINED: the rows kept as predictable are near their floor ({plain_ratio:.2}x, at most {}x), but over every row most of the residual repeats with the command (above), enough alone to make the fit poor: a deterministic response the model lacks, in spans the predictability assessment weighted out",

@@ -574,7 +574,7 @@ impl<'a> Ctx<'a> {
         let repeats =
             |r: &Repeating| material_part(self.opts, r.repeating_mean_square, r.noise_sigma);
         let poor = |r: &Repeating| {
-            r.repeating_mean_square > (self.opts.poor_ratio.powi(2) - 1.0) * r.noise_sigma.powi(2)
+            part_above(self.opts.poor_ratio, r.repeating_mean_square, r.noise_sigma)
         };
         if repeating
             .iter()
@@ -1211,7 +1211,14 @@ fn coherent_parts(
 /// would take the NRMSE above [`Options::material_ratio`] times the floor (its mean square
 /// above (ratio² − 1) σ², σ the record's noise standard deviation `sigma`).
 fn material_part(opts: &Options, part_ms: f64, sigma: f64) -> bool {
-    part_ms > (opts.material_ratio.powi(2) - 1.0) * sigma.powi(2)
+    part_above(opts.material_ratio, part_ms, sigma)
+}
+
+/// A part of a residual of mean square `part_ms` would alone take the NRMSE above `ratio`
+/// times the floor: its mean square above (ratio² − 1) σ², σ the record's noise standard
+/// deviation `sigma`.
+fn part_above(ratio: f64, part_ms: f64, sigma: f64) -> bool {
+    part_ms > (ratio.powi(2) - 1.0) * sigma.powi(2)
 }
 
 /// The residual of `p` on every row of `d`; `None` when the model cannot be run on it.
