@@ -158,6 +158,20 @@ fn fmt_steps(out: &Outcome) -> String {
         .join("; ")
 }
 
+/// The unit's true parameters as the model carries them (its measured stiffness, the
+/// records' sample period: both records are sampled at foreign::SAMPLE_PERIOD_S), and the
+/// estimation record on the rows `out` judged predictable, as diagnose sees it (the file's
+/// backlash gives the load angle's floor).
+fn truth_on_rows(c: &ForeignCase, out: &Outcome) -> (ActuatorParams, calibrate::Data) {
+    let mut truth = calibrate::with_measured_stiffness(&c.truth).unwrap();
+    truth.sample_period_s = c.estimation.sample_period_s;
+    let rows = c
+        .estimation
+        .with_backlash(c.file.backlash_deg)
+        .with_weights(&out.weights.first().cloned().unwrap_or_default());
+    (truth, rows)
+}
+
 /// The base set of `p` against the truth scaled by s ([`ForeignCase::fitted_scale`]), as
 /// "name fitted/expected"; the resistance too when it is fitted (records with the current).
 fn fmt_base(case: &ForeignCase, p: &ActuatorParams) -> String {
@@ -371,19 +385,13 @@ fn diagnose_names_effects_in_records_of_the_independent_reference() {
         let values_ok = rec.iter().all(|r| r.3 <= VALUE_TOL);
         // Like with like: the true parameters on the rows diagnose judged predictable.
         let fin = out.final_analysis.nrmse;
-        // (Both records are sampled at foreign::SAMPLE_PERIOD_S.)
-        let mut truth = calibrate::with_measured_stiffness(&c.truth).unwrap();
-        truth.sample_period_s = c.estimation.sample_period_s;
         // The estimation record on diagnose's predictable rows as diagnose sees it: every
         // output it has, each in units of its own floor (`calibrate::Channel`, the load
         // angle's with the file's gap). A record with several outputs is fitted on all of
         // them, so its bar compares that cost, final against truth on the same rows
         // (`calibrate::nrmse_all`, the first output's NRMSE when it has one); the first
         // output's ratio is reported beside it.
-        let est_rows = c
-            .estimation
-            .with_backlash(c.file.backlash_deg)
-            .with_weights(&out.weights.first().cloned().unwrap_or_default());
+        let (truth, est_rows) = truth_on_rows(c, &out);
         let truth_pred = calibrate::nrmse(&truth, &est_rows);
         let multi = !est_rows.extra.is_empty();
         let score = |p: &ActuatorParams| calibrate::nrmse_all(p, &est_rows);
@@ -1018,4 +1026,41 @@ fn with_the_current_logged_a_slow_tachometer_is_told_from_a_motor_friction() {
     );
     let r = out.final_fit.params.motor.resistance_ohm / c.truth.motor.resistance_ohm;
     assert!((r - 1.0).abs() < 0.01, "R {r} of the unit's");
+}
+
+/// Rattle is not a response the model lacks: on a periodic validation record only a material
+/// part of the residual that repeats with the command sends the diagnosis on to its second
+/// pass (`diagnose::diagnose_with`). On clean/1 (the tachometer and the load angle) the first
+/// pass left a validation residual of 2.42 noise levels over every row, of which nothing
+/// repeated: rattle that the final model's assessment kept. Fitted in a second pass, it moved
+/// the friction split from +4/-4 % to +13/-12 % of the unit's, and the final ended at 1.42x
+/// the truth's NRMSE on the estimation record's predictable rows (every output, each in units
+/// of its floor); without the second pass it ends at 1.07x. Nothing is added either way.
+/// Records of the independent reference integrator, every parameter perturbed, rattle
+/// included.
+#[test]
+fn rattle_that_does_not_repeat_sends_no_second_pass() {
+    let c = foreign::case(Kind::Clean, 1).unwrap();
+    let out = c.diagnose(&Options::default()).unwrap();
+    eprintln!("{}: {}", c.label(), fmt_steps(&out));
+    assert!(
+        out.steps.is_empty() && !out.unexplained,
+        "a clean unit: {} (unexplained {})",
+        fmt_steps(&out),
+        out.unexplained
+    );
+    let (truth, rows) = truth_on_rows(&c, &out);
+    let (fin, tru) = (
+        calibrate::nrmse_all(&out.final_fit.params, &rows),
+        calibrate::nrmse_all(&truth, &rows),
+    );
+    eprintln!(
+        "every output on diagnose's rows: final {fin:.4}, true parameters {tru:.4} ({:.2}x); second pass: {}",
+        fin / tru,
+        out.validation_in_fit.is_some()
+    );
+    assert!(
+        fin <= NRMSE_RATIO * tru,
+        "final {fin:.4} against the truth's {tru:.4} on the same rows"
+    );
 }
