@@ -2,7 +2,7 @@
 //! command itself (files in, plots and the calibrated parameter file out).
 
 use crate::calibrate::{self, Data, Fit, Knob};
-use crate::diagnose::{Outcome, ResidualKind};
+use crate::diagnose::{part_above, Outcome, ResidualKind};
 use crate::predictability;
 use crate::repeat::{Coherent, Repeating};
 use crate::residual;
@@ -53,6 +53,16 @@ impl Outcome {
     /// (`Ctx::residual_kind`).
     pub fn unexplained_where_weighted_out(&self) -> bool {
         self.unexplained && self.plain_floor_ratio() <= self.material_ratio
+    }
+
+    /// No effect added, and no material part of the residual on the validation record
+    /// repeats with the command (`crate::repeat`; false when the record is not periodic or
+    /// was not given): what remains there is rattle, not a response the model lacks.
+    pub fn no_step_and_nothing_repeats(&self) -> bool {
+        self.steps.is_empty()
+            && self.validation_repeating.is_some_and(|r| {
+                !part_above(self.material_ratio, r.repeating_mean_square, r.noise_sigma)
+            })
     }
 
     /// The final fit's NRMSE over the floor on its rows, plainly (not under the robust
