@@ -418,11 +418,11 @@ pub fn diagnose_with(
         let repeats = fin
             .validation_repeating
             .is_some_and(|r| material_part(opts, r.repeating_mean_square, r.noise_sigma));
+        let rattle = fin.no_step_and_nothing_repeats();
         log::debug!(
-            "validation after the fine search: NRMSE {fa:.4}, floor {ff:.4}; a material part repeats with the command: {repeats}; no step and nothing repeats: {}",
-            fin.no_step_and_nothing_repeats()
+            "validation after the fine search: NRMSE {fa:.4}, floor {ff:.4}; a material part repeats with the command: {repeats}; no step and nothing repeats: {rattle}"
         );
-        if (fa <= opts.material_ratio * ff && !repeats) || fin.no_step_and_nothing_repeats() {
+        if (fa <= opts.material_ratio * ff && !repeats) || rattle {
             return Ok(fin);
         }
         (fin, fa, ff)
