@@ -261,9 +261,10 @@ pub(super) fn mirror_points(
 /// may rank last, but the file's values have made up for nothing (voltage_limit/56 of the
 /// foreign suite: the local refit from the current fit stopped at 10.0 V with the limit at
 /// 7.3 V, the global settle from the file's values with the limit at 7.47 V, the best of
-/// its grid there, found 7.31 V at a twentieth of the refit's cost). Its kin are searched
-/// globally from the same point in their terms ([`mirror`]: the load's viscous friction for
-/// the motor's through the gear ratio), so that the search does not decide a tie by which of
+/// its grid there, found 7.31 V at a twentieth of the refit's cost). Its kin whose mirror
+/// exchanges one torque term are searched globally from the same point in their terms
+/// ([`file_side_starts`]: the load's viscous friction for the motor's through the gear
+/// ratio), so that the search does not decide a tie by which of
 /// the two it searched globally (pair/2 of the foreign suite on the current alone: the
 /// motor's friction settled globally at 5.4e-4, the load's, the unit's, only polished from
 /// the mirror of that point, 9.1e-4 before and 0.52 against 0.44 of the current model after,
@@ -309,7 +310,7 @@ pub(super) fn structural_refits(
         }
     }
     // The candidate that does most for the file's values, at the best of its grid there,
-    // when no other rule searched it globally.
+    // and its kin in its terms, where no other rule searched them globally.
     let (index, cands): (Vec<usize>, Vec<(Effect, &Knob)>) = local
         .iter()
         .enumerate()
@@ -379,6 +380,17 @@ fn file_side_starts(
     let Some((r, k)) = local.get(i).and_then(|r| Some((r, r.knobs.last()?))) else {
         return Vec::new();
     };
+    let kin_of_side = kin(r.effect);
+    let exchanged: Vec<(usize, Effect)> = local
+        .iter()
+        .enumerate()
+        .filter(|&(j, x)| {
+            !structural.contains(&j)
+                && kin_of_side.contains(&x.effect)
+                && !rescales(r.effect, x.effect)
+        })
+        .map(|(j, x)| (j, x.effect))
+        .collect();
     let mut starts = Vec::new();
     for start in from_file {
         let mut q = *start;
@@ -387,14 +399,8 @@ fn file_side_starts(
             starts.push((i, q));
         }
         let from_value = calibrate::get(start, k.param);
-        for (j, x) in local.iter().enumerate() {
-            if structural.contains(&j)
-                || !kin(r.effect).contains(&x.effect)
-                || rescales(r.effect, x.effect)
-            {
-                continue;
-            }
-            if let Some(m) = mirror(&q, r.effect, from_value, x.effect) {
+        for &(j, e) in &exchanged {
+            if let Some(m) = mirror(&q, r.effect, from_value, e) {
                 starts.push((j, m));
             }
         }
