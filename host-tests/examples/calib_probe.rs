@@ -134,6 +134,10 @@ fn main() {
             kept_bursts(&c);
             continue;
         }
+        if std::env::var("VALPROBE").is_ok() {
+            valprobe(&c);
+            continue;
+        }
         if std::env::var("SPANS").is_ok() {
             spans(&c);
             continue;
@@ -1755,4 +1759,53 @@ fn unexcuse(c: &foreign::ForeignCase) {
         r(calibrate::cost(&te, &own_t)),
     );
     println!("   polished {}", fmt(&te, &q));
+}
+
+/// The truth on each record's predictable rows (its own assessment): NRMSE over the floor,
+/// and the worst 50 ms windows of the kept residual in noise levels.
+fn valprobe(c: &foreign::ForeignCase) {
+    let te = eq_truth(c);
+    for (name, d) in [("est", &c.estimation), ("val", &c.validation)] {
+        let sigma = noise::sigma(&d.y);
+        let pr = predictability::assess(&te, d);
+        let w = d.with_weights(&pr.weight);
+        let m = calibrate::output(&te, d).unwrap();
+        let fl = noise::floor_nrmse(sigma, &w.weight, w.norm);
+        let nr = calibrate::nrmse_of(Some(&m), &w);
+        println!(
+            "VAL {} {name}: kept {:.1} %, truth {nr:.4} floor {fl:.4} (x{:.2})",
+            c.label(),
+            100.0 * (1.0 - pr.excluded_share),
+            nr / fl
+        );
+        let win = (0.05 / d.sample_period_s).round() as usize;
+        let mut rows: Vec<(f64, usize, f64)> = Vec::new();
+        let mut excess = 0.0;
+        for (i, ch) in (0..d.y.len()).collect::<Vec<_>>().chunks(win).enumerate() {
+            let (mut e, mut n) = (0.0, 0.0);
+            for &k in ch {
+                let wk = pr.weight[k];
+                e += wk * (d.y[k] - m[k]).powi(2);
+                n += wk;
+            }
+            if n > 0.0 {
+                let r = (e / n).sqrt() / sigma;
+                excess += (e - n * sigma * sigma).max(0.0);
+                rows.push((r, i, n));
+            }
+        }
+        let total_excess = excess;
+        rows.sort_by(|a, b| b.0.partial_cmp(&a.0).unwrap());
+        let line: Vec<String> = rows
+            .iter()
+            .take(8)
+            .map(|(r, i, n)| format!("{:.2}s:{r:.1}σ({n:.0})", *i as f64 * 0.05))
+            .collect();
+        println!(
+            "VAL {} {name}: worst windows {} ; excess {:.3e}",
+            c.label(),
+            line.join(" "),
+            total_excess
+        );
+    }
 }
