@@ -1781,11 +1781,15 @@ fn valprobe(c: &foreign::ForeignCase) {
         let win = (0.05 / d.sample_period_s).round() as usize;
         let mut rows: Vec<(f64, usize, f64)> = Vec::new();
         let mut excess = 0.0;
-        for (i, ch) in (0..d.y.len()).collect::<Vec<_>>().chunks(win).enumerate() {
+        for (i, start) in (0..d.y.len()).step_by(win.max(1)).enumerate() {
             let (mut e, mut n) = (0.0, 0.0);
-            for &k in ch {
-                let wk = pr.weight[k];
-                e += wk * (d.y[k] - m[k]).powi(2);
+            let end = (start + win).min(d.y.len());
+            for ((y, mk), wk) in d.y[start..end]
+                .iter()
+                .zip(&m[start..end])
+                .zip(&pr.weight[start..end])
+            {
+                e += wk * (y - mk).powi(2);
                 n += wk;
             }
             if n > 0.0 {
@@ -1794,7 +1798,6 @@ fn valprobe(c: &foreign::ForeignCase) {
                 rows.push((r, i, n));
             }
         }
-        let total_excess = excess;
         rows.sort_by(|a, b| b.0.partial_cmp(&a.0).unwrap());
         let line: Vec<String> = rows
             .iter()
@@ -1805,7 +1808,7 @@ fn valprobe(c: &foreign::ForeignCase) {
             "VAL {} {name}: worst windows {} ; excess {:.3e}",
             c.label(),
             line.join(" "),
-            total_excess
+            excess
         );
     }
 }

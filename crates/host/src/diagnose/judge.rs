@@ -255,8 +255,8 @@ fn gain_share(common: (f64, f64, f64), own: (f64, f64, f64)) -> f64 {
 /// NRMSE 0.0358 against 0.0357 on its own rows. And the costs alone compare row sets whose
 /// floors differ: on tach_gain/76 (both records) the gain's refit, near the unit's (8.84e-2
 /// for 8.93e-2), keeps the estimation record's rows at its floor (0.0191, 3 500 rows) and
-/// only the first 0.13 s of the square wave, where the signal is small and the floor
-/// 0.048 (so does the truth: 4 % of that record), at 0.0455: pooled NRMSE 0.0349. The
+/// only the first 0.13 s of the square wave, before its first reversal, where the speed
+/// varies little and the floor is 0.048 (NRMSE is normalised over the rows kept) (so does the truth: 4 % of that record), at 0.0455: pooled NRMSE 0.0349. The
 /// current model, the gain taken into every mechanical quantity, keeps 1 200 rows of the
 /// square wave and follows them to 0.040, twice their floor: 0.0329. In floor units the
 /// refit is at 0.9, the current model at about 2.
@@ -313,8 +313,12 @@ pub(super) fn judge(
 ) -> Vec<Judged> {
     let opts = cx.opts;
     let cur_n_eff = effective_samples(&cur.params, wdata);
-    // The current model's cost on its own rows and their floor cost.
+    // Whether a fit of a candidate follows its own rows `own` as well as the current model
+    // follows its own (`follows_own_rows`, with each row set's floor cost).
     let cur_rows = (cur.cost, floor_cost(wdata, &cx.sigma));
+    let follows_own = |f: &Fit, own: &[Data]| {
+        follows_own_rows((f.cost, floor_cost(own, &cx.sigma)), cur_rows, cur_n_eff)
+    };
     // Each candidate's better refit, the candidates in parallel:
     // (cost over the current model's, fit, own rows, common rows, fit cost, current cost)
     type Alt = (f64, Fit, Vec<Data>, Vec<Data>, f64, f64);
@@ -352,11 +356,7 @@ pub(super) fn judge(
                 // admissible point of the same candidate (tach_gain/28: the gain's local
                 // refit at NRMSE 0.1026 on its own rows against the current model's
                 // 0.0792, its mirror of the motor friction's refit at the friction's).
-                let follows = follows_own_rows(
-                    (f.cost, floor_cost(&own, &cx.sigma)),
-                    cur_rows,
-                    cur_n_eff,
-                );
+                let follows = follows_own(&f, &own);
                 let eligible = i == 0 || follows;
                 log::debug!(
                     "    {} refit {i}: value {start_value:.4e} polished to {:.4e}, ratio {r:.4} on {:.0} common rows, own rows NRMSE {:.4} (current {:.4}){}",
@@ -370,11 +370,7 @@ pub(super) fn judge(
                 let better = match &best {
                     None => true,
                     Some(b) => {
-                        let b_follows = follows_own_rows(
-                            (b.1.cost, floor_cost(&b.2, &cx.sigma)),
-                            cur_rows,
-                            cur_n_eff,
-                        );
+                        let b_follows = follows_own(&b.1, &b.2);
                         (follows && !b_follows) || (follows == b_follows && r < b.0)
                     }
                 };
@@ -518,7 +514,7 @@ pub(super) fn judge(
                 "switched off again it keeps {:.0} % of its gain: the other parameters made it",
                 100.0 * (1.0 - own_share.max(0.0))
             ))
-        } else if !follows_own_rows((fit.cost, floor_cost(&own, &cx.sigma)), cur_rows, cur_n_eff) {
+        } else if !follows_own(&fit, &own) {
             Err(format!(
                 "its refit follows its own predictable rows to NRMSE {:.4}, worse than the current model follows its own ({:.4})",
                 fit.cost.sqrt(),
