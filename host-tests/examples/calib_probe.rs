@@ -34,6 +34,14 @@ fn eq_truth(c: &foreign::ForeignCase) -> ActuatorParams {
     t
 }
 
+/// The file's values as the calibration starts from them: the stiffness in its measured
+/// form, at the record's sample period `h`, s.
+fn file_form(c: &foreign::ForeignCase, h: f64) -> ActuatorParams {
+    let mut file = calibrate::with_measured_stiffness(&c.file).unwrap();
+    file.sample_period_s = h;
+    file
+}
+
 fn fmt(t: &ActuatorParams, p: &ActuatorParams) -> String {
     BASE_KNOBS
         .iter()
@@ -388,8 +396,7 @@ fn main() {
 pub fn file_grid(c: &foreign::ForeignCase) {
     use geared_servo::Effect;
     for (name, d) in [("est", &c.estimation), ("val", &c.validation)] {
-        let mut file = calibrate::with_measured_stiffness(&c.file).unwrap();
-        file.sample_period_s = d.sample_period_s;
+        let file = file_form(c, d.sample_period_s);
         let mv = d.max_abs_v();
         let start = calibrate::with_background_damping(&file, mv).unwrap();
         let w = calibrate::robust(&[predictability::weigh_smooth(&start, d).0]);
@@ -451,8 +458,7 @@ pub fn frf(c: &foreign::ForeignCase) {
     let f_r = f_ar * (1.0 + jl / (n * n * jm)).sqrt();
     let d = &c.estimation;
     let read = calibrate::frf_notch_peak(d);
-    let mut file = calibrate::with_measured_stiffness(&c.file).unwrap();
-    file.sample_period_s = d.sample_period_s;
+    let file = file_form(c, d.sample_period_s);
     let start = calibrate::frf_start(&file, d);
     println!(
         "FRF {} output {}{}: truth f_AR {f_ar:.1} Hz f_R {f_r:.1} Hz; read {:?}; start k {:?} Jm {:?} (truth k {k:.1} Jm {jm:.3e})",
@@ -484,8 +490,7 @@ pub fn md_settle(c: &foreign::ForeignCase) {
     }
     .with_backlash(c.file.backlash_deg);
     let te = eq_truth(c);
-    let mut file = calibrate::with_measured_stiffness(&c.file).unwrap();
-    file.sample_period_s = d.sample_period_s;
+    let file = file_form(c, d.sample_period_s);
     let mv = d.max_abs_v();
     let mut knobs = calibrate::default_knobs(&file, mv);
     let e = geared_servo::Effect::MeshDamping;
@@ -548,8 +553,7 @@ pub fn md_settle(c: &foreign::ForeignCase) {
 pub fn base_only(c: &foreign::ForeignCase) {
     let d = &c.estimation;
     let te = eq_truth(c);
-    let mut file = calibrate::with_measured_stiffness(&c.file).unwrap();
-    file.sample_period_s = d.sample_period_s;
+    let file = file_form(c, d.sample_period_s);
     let mv = d.max_abs_v();
     let mut knobs = calibrate::default_knobs(&file, mv);
     let start = calibrate::with_background_damping(&file, mv).unwrap();
@@ -649,8 +653,7 @@ pub fn smooth(c: &foreign::ForeignCase) {
         calibrate::nrmse(&te, &wt),
         fl(&wt)
     );
-    let mut file = calibrate::with_measured_stiffness(&c.file).unwrap();
-    file.sample_period_s = d.sample_period_s;
+    let file = file_form(c, d.sample_period_s);
     let mv = d.max_abs_v();
     let mut knobs = calibrate::default_knobs(&file, mv);
     let start = calibrate::with_background_damping(&file, mv).unwrap();
@@ -1216,8 +1219,7 @@ pub fn structural(c: &foreign::ForeignCase) {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(1.0);
-    let mut file = calibrate::with_measured_stiffness(&c.file).unwrap();
-    file.sample_period_s = d.sample_period_s;
+    let file = file_form(c, d.sample_period_s);
     let mv = d.max_abs_v();
     let mut knobs = calibrate::default_knobs(&file, mv);
     let mut start = calibrate::with_background_damping(&file, mv).unwrap();
@@ -1749,8 +1751,7 @@ pub fn tgain(c: &foreign::ForeignCase) {
     let we = predictability::weigh(&t, &c.estimation).0;
     let wv = predictability::weigh(&t, &c.validation).0;
     let both = [we, wv];
-    let mut file = calibrate::with_measured_stiffness(&c.file).unwrap();
-    file.sample_period_s = t.sample_period_s;
+    let file = file_form(c, t.sample_period_s);
     let mut knobs = calibrate::default_knobs(&file, mv);
     knobs.push(calibrate::background_damping_knob(&file, mv));
     for (e, _) in &c.expected {

@@ -255,11 +255,12 @@ fn gain_share(common: (f64, f64, f64), own: (f64, f64, f64)) -> f64 {
 /// NRMSE 0.0358 against 0.0357 on its own rows. And the costs alone compare row sets whose
 /// floors differ: on tach_gain/76 (both records) the gain's refit, near the unit's (8.84e-2
 /// for 8.93e-2), keeps the estimation record's rows at its floor (0.0191, 3 500 rows) and
-/// only the first 0.13 s of the square wave, before its first reversal, where the speed
-/// varies little and the floor is 0.048 (NRMSE is normalised over the rows kept) (so does the truth: 4 % of that record), at 0.0455: pooled NRMSE 0.0349. The
-/// current model, the gain taken into every mechanical quantity, keeps 1 200 rows of the
-/// square wave and follows them to 0.040, twice their floor: 0.0329. In floor units the
-/// refit is at 0.9, the current model at about 2.
+/// only the first 0.13 s of the square wave (so does the truth: 4 % of that record), before
+/// its first reversal, where the speed varies little and the floor is 0.048 (NRMSE is
+/// normalised over the rows kept), at 0.0455: pooled NRMSE 0.0349. The current model, the
+/// gain taken into every mechanical quantity, keeps 1 200 rows of the square wave and
+/// follows them to 0.040, twice their floor: 0.0329. In floor units the refit is at 0.9,
+/// the current model at about 2.
 fn follows_own_rows(fit: (f64, f64), cur: (f64, f64), n_eff: f64) -> bool {
     let tol = 1.0 + (2.0 / n_eff.max(2.0)).sqrt();
     let in_cost = fit.0 <= cur.0 * tol;
