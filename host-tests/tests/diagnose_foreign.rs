@@ -774,6 +774,7 @@ fn gravity_that_the_records_cannot_tell_from_a_spring_is_reported_beside_it() {
 /// owed; if one is given, its value must be the implausible one. Records of the independent
 /// reference integrator, every parameter perturbed, rattle included.
 #[test]
+#[ignore = "a trace of the search (115 s on 2 cores): beyond CI's budget beside the others; run with `cargo test --release -p geared-servo-host-tests --test diagnose_foreign -- --ignored --skip diagnose_names_effects`"]
 fn an_implausible_tachometer_gain_gives_way_to_the_friction_that_is_there() {
     let c = foreign::case(Kind::Single(Effect::MotorViscous), 6).unwrap();
     let out = diagnosed_in_one_step(&c);
@@ -862,6 +863,7 @@ fn a_slow_tachometer_and_a_motor_friction_are_reported_together() {
 /// it at 0.029. Records of the independent reference integrator, every parameter perturbed,
 /// rattle included.
 #[test]
+#[ignore = "a trace of the search (150 s on 2 cores): beyond CI's budget beside the others; run with `cargo test --release -p geared-servo-host-tests --test diagnose_foreign -- --ignored --skip diagnose_names_effects`"]
 fn a_model_stuck_on_rows_it_misses_is_settled_again() {
     let c = foreign::case(Kind::OutOfLibrary, 1).unwrap();
     let opts = Options::default();
@@ -1002,6 +1004,7 @@ fn the_base_finds_how_the_friction_splits_between_motor_and_load() {
 /// combined: −8.9 % for −9.2 % hidden), the friction neither named nor beside it. Records of
 /// the independent reference integrator, every parameter perturbed, rattle included.
 #[test]
+#[ignore = "a trace of the search (140 s on 2 cores): beyond CI's budget beside the others; run with `cargo test --release -p geared-servo-host-tests --test diagnose_foreign -- --ignored --skip diagnose_names_effects`"]
 fn with_the_current_logged_a_slow_tachometer_is_told_from_a_motor_friction() {
     let making = Making {
         sensors: Sensors::WithCurrent,
