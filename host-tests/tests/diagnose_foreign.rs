@@ -855,34 +855,43 @@ fn a_slow_tachometer_and_a_motor_friction_are_reported_together() {
     );
 }
 
-/// The stuck rule of `diagnose` (its last resettle, `diagnose/mod.rs`): a model that misses
-/// its own predictable rows grossly (NRMSE above [`Options::poor_ratio`] times their floor),
-/// where a settle from it follows its own, is replaced by that settle. On second_mode/1 (a
-/// structural mode outside the library) the second pass ends in such a model: without the
-/// rule the search stops there, at NRMSE 0.093 on its rows against a floor of 0.019; with
-/// it at 0.029. Records of the independent reference integrator, every parameter perturbed,
-/// rattle included.
+/// A structural mode outside the library is reported as such: `unexplained`, nothing
+/// claimed with confidence, and the band that holds most of the residual's energy holds the
+/// mode's frequency (second_mode/1: J2 a fifth of the load's inertia at 217 Hz on a held
+/// load, the tachometer and the load angle logged). Until 2026-12-07 this test was the
+/// witness of the stuck rule of `diagnose` (its last resettle, `diagnose/mod.rs`): the
+/// second pass ended in a model at 0.093 on its own rows against a floor of 0.019, the rule
+/// took the settle from it, and the search ended at 0.025. Since the floor counts a load
+/// angle at its noise (`settle::record_floor_cost`) the search takes another path on this
+/// unit: its second pass ends at 2.58x its rows' floor, the settle from there at 4.05x
+/// (with a second random stream 3.50x, at a new bound), so the rule has nothing to take and
+/// the search ends at 0.0409 against a floor of 0.0204; the band of 80-250 Hz then holds
+/// 79 % of the residual's energy (49 % before), peak 191 Hz. The rule stays without a
+/// witness among the suite's records. Records of the independent reference integrator,
+/// every parameter perturbed, rattle included.
 #[test]
 #[ignore = "a trace of the search (150 s on 2 cores): beyond CI's budget beside the others; run with `cargo test --release -p geared-servo-host-tests --test diagnose_foreign -- --ignored --skip diagnose_names_effects`"]
-fn a_model_stuck_on_rows_it_misses_is_settled_again() {
+fn a_mode_outside_the_library_is_unexplained_with_its_band() {
     let c = foreign::case(Kind::OutOfLibrary, 1).unwrap();
-    let opts = Options::default();
-    let out = c.diagnose(&opts).unwrap();
-    let fin = out.final_analysis.nrmse;
+    let out = c.diagnose(&Options::default()).unwrap();
+    let fin = &out.final_analysis;
+    let (lo, hi, share) = fin.dominant_band();
     eprintln!(
-        "{}: {}; final NRMSE {fin:.4}, floor {:.4}",
+        "{}: {}; final NRMSE {:.4}, floor {:.4}; band {lo}-{hi} Hz ({share:.2}), peak {:.1} Hz",
         c.label(),
         fmt_steps(&out),
-        out.floor_nrmse
+        fin.nrmse,
+        out.floor_nrmse,
+        fin.peak_hz
     );
     assert!(
         verdict_right(&c, &out, true),
         "an out-of-library mode is unexplained"
     );
+    let f0 = c.second_mode.map_or(f64::NAN, |m| m.frequency_hz);
     assert!(
-        fin <= opts.poor_ratio * out.floor_nrmse,
-        "the search ended in a model that misses its own rows: NRMSE {fin:.4}, floor {:.4}",
-        out.floor_nrmse
+        lo <= f0 && f0 < hi,
+        "band {lo}-{hi} Hz does not hold the mode's {f0} Hz"
     );
 }
 

@@ -520,6 +520,18 @@ impl<'a> Ctx<'a> {
         settle(start, knobs, self.data, self.opts.predictability, global)
     }
 
+    /// A global [`settle_seeded`] on the records, with the search's random stream `seed`.
+    fn settle_seeded(&self, start: &ActuatorParams, knobs: &[Knob], seed: u64) -> (Fit, Vec<Data>) {
+        settle_seeded(
+            start,
+            knobs,
+            self.data,
+            self.opts.predictability,
+            true,
+            seed,
+        )
+    }
+
     /// The floor cost of `data` (weighted estimation records).
     fn floor(&self, data: &[Data]) -> f64 {
         floor_cost(data, &self.sigma)
@@ -1268,8 +1280,15 @@ fn resettle(cx: &Ctx, cur: &Fit, wdata: &[Data], data: &[Data]) -> Option<(Fit, 
     // Nor one that runs a knob into a bound the model is not at (the rule of the null
     // refit, of fine_search and of a step).
     if !calibrate::new_bounds(cur, &g).is_empty() {
+        log::debug!("  resettle: a knob at a new bound");
         return None;
     }
+    let (fc, fg) = (cx.floor(wdata), cx.floor(&w));
+    log::debug!(
+        "  resettle: the current model at {:.3}x its rows' floor, the settle at {:.3}x its own",
+        (cur.cost / fc).sqrt(),
+        (g.cost / fg).sqrt()
+    );
     // A model that misses its own predictable rows grossly (NRMSE above `poor_ratio` times
     // their floor) where the settle from it follows its own is stuck: the rows both keep
     // leave out the very rows it misses, and it can win there (second_mode/1 of the foreign
@@ -1282,6 +1301,7 @@ fn resettle(cx: &Ctx, cur: &Fit, wdata: &[Data], data: &[Data]) -> Option<(Fit, 
         return Some((g, w));
     }
     let (c2, w2, better) = better_on_common((cur.clone(), wdata.to_vec()), (g, w), data);
+    log::debug!("  resettle: the settle better on the rows both keep: {better}");
     better.then_some((c2, w2))
 }
 

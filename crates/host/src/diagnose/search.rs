@@ -296,7 +296,7 @@ pub(super) fn structural_refits(
     // Each candidate's starts: the file's values (each of `from_file`) with the candidate at
     // its refitted value; starts that differ only in the candidate's own value (the mesh
     // damping's, with and without the background) are one start.
-    let mut tasks: Vec<(usize, ActuatorParams)> = Vec::new();
+    let mut tasks: Vec<(usize, ActuatorParams, u64)> = Vec::new();
     for &i in &structural {
         let Some((r, k)) = local.get(i).and_then(|r| Some((r, r.knobs.last()?))) else {
             continue;
@@ -304,8 +304,8 @@ pub(super) fn structural_refits(
         for start in from_file {
             let mut q = *start;
             calibrate::set(&mut q, k.param, calibrate::get(&r.fit.params, k.param));
-            if !tasks.contains(&(i, q)) {
-                tasks.push((i, q));
+            if !tasks.contains(&(i, q, 0)) {
+                tasks.push((i, q, 0));
             }
         }
     }
@@ -325,22 +325,33 @@ pub(super) fn structural_refits(
             "  file side: {} at {v:.4e} gives {ratio:.3} of the file's cost",
             local.get(i).map_or("?", |r| r.effect.name())
         );
-        for t in file_side_starts(local, &structural, (i, v), from_file) {
-            if !tasks.contains(&t) {
-                tasks.push(t);
+        // Its own starts are settled with a second random stream too: the global settle
+        // lands in a far basin by chance (on mesh_damping/1 of the foreign suite logged by
+        // the load angle alone, from the file's values with the damping at 9.943e-2, one in
+        // eight starts moved by a millionth of the damping ended at k_eq −22 %, backlash
+        // −30 %, the damping 6.4e-2 for the unit's 8.2e-2, twice the cost of the other
+        // seven, which found the unit to within 1 %), and this is the candidate likeliest
+        // to be what the model lacks.
+        for (j, q) in file_side_starts(local, &structural, (i, v), from_file) {
+            let seeds: &[u64] = if j == i { &[0, 1] } else { &[0] };
+            for &seed in seeds {
+                if !tasks.contains(&(j, q, seed)) {
+                    tasks.push((j, q, seed));
+                }
             }
         }
     }
     let globals: Vec<(usize, Point)> = tasks
         .par_iter()
-        .filter_map(|&(i, q)| {
+        .filter_map(|&(i, q, seed)| {
             let r = local.get(i)?;
-            let g = Point::from(&cx.settle(&q, &r.knobs, true).0);
+            let g = Point::from(&cx.settle_seeded(&q, &r.knobs, seed).0);
             if let Some(k) = r.knobs.last() {
                 log::debug!(
-                    "  {}'s global settle from {:.4e}: {:.4e}, cost {:.4e} (local refit {:.4e}, cost {:.4e})",
+                    "  {}'s global settle from {:.4e}{}: {:.4e}, cost {:.4e} (local refit {:.4e}, cost {:.4e})",
                     r.effect,
                     calibrate::get(&q, k.param),
+                    if seed == 0 { String::new() } else { format!(" (seed {seed})") },
                     calibrate::get(&g.params, k.param),
                     g.cost,
                     calibrate::get(&r.fit.params, k.param),

@@ -327,14 +327,25 @@ pub(super) fn floor_cost_sd(data: &[Data], sigma: &[f64]) -> f64 {
 
 /// The root of [`record_floor_cost`]: the floor of [`calibrate::nrmse_all`].
 pub(super) fn record_floor_nrmse(d: &Data, sigma: f64) -> f64 {
-    noise::floor_nrmse(sigma, &d.weight, d.norm) * ((1 + d.extra.len()) as f64).sqrt()
+    record_floor_cost(d, sigma).sqrt()
 }
 
 /// One weighted record's noise-only NRMSE² at noise level `sigma`.
 fn record_floor_cost(d: &Data, sigma: f64) -> f64 {
     // Each further output at its floor weighs what the first does at its noise
-    // (`calibrate::Channel`).
-    noise::floor_nrmse(sigma, &d.weight, d.norm).powi(2) * (1 + d.extra.len()) as f64
+    // (`calibrate::Channel`); at its noise alone, (noise / floor)² of that.
+    let extra: f64 = d
+        .extra
+        .iter()
+        .map(|c| {
+            if c.floor > 0.0 {
+                (c.noise / c.floor).powi(2)
+            } else {
+                1.0
+            }
+        })
+        .sum();
+    noise::floor_nrmse(sigma, &d.weight, d.norm).powi(2) * (1.0 + extra)
 }
 
 /// Length of the blocks over which [`preference`] sums the cost difference of two fits, s:
