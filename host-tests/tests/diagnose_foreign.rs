@@ -735,6 +735,7 @@ fn diagnosed_in_one_step(c: &ForeignCase) -> Outcome {
 /// (`judge::swap_in_class`, 2026-12-04). Records of the independent reference integrator,
 /// every parameter perturbed, rattle included.
 #[test]
+#[ignore = "a trace of the search (74 s on 2 cores): beyond CI's budget beside the others (the class of gravity and a spring is in CI on synthetic records: diagnose_bench_effects); run with `cargo test --release -p geared-servo-host-tests --test diagnose_foreign -- --ignored --skip diagnose_names_effects`"]
 fn gravity_that_the_records_cannot_tell_from_a_spring_is_reported_beside_it() {
     let c = foreign::case(Kind::Single(Effect::GravityTorque), 29).unwrap();
     let out = diagnosed_in_one_step(&c);
