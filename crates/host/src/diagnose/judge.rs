@@ -380,11 +380,12 @@ pub(super) fn judge(
                     None => true,
                     Some(b) => {
                         let b_follows = follows_own(&b.1, &b.2);
-                        let both = common_rows(cx.data, &b.2, &own);
                         (follows && !b_follows)
-                            || (follows == b_follows
-                                && calibrate::cost(&f.params, &both)
-                                    < calibrate::cost(&b.1.params, &both))
+                            || (follows == b_follows && {
+                                let both = common_rows(cx.data, &b.2, &own);
+                                calibrate::cost(&f.params, &both)
+                                    < calibrate::cost(&b.1.params, &both)
+                            })
                     }
                 };
                 if eligible && better {

@@ -1283,11 +1283,10 @@ fn resettle(cx: &Ctx, cur: &Fit, wdata: &[Data], data: &[Data]) -> Option<(Fit, 
         log::debug!("  resettle: a knob at a new bound");
         return None;
     }
-    let (fc, fg) = (cx.floor(wdata), cx.floor(&w));
     log::debug!(
         "  resettle: the current model at {:.3}x its rows' floor, the settle at {:.3}x its own",
-        (cur.cost / fc).sqrt(),
-        (g.cost / fg).sqrt()
+        (cur.cost / cx.floor(wdata)).sqrt(),
+        (g.cost / cx.floor(&w)).sqrt()
     );
     // A model that misses its own predictable rows grossly (NRMSE above `poor_ratio` times
     // their floor) where the settle from it follows its own is stuck: the rows both keep

@@ -456,9 +456,27 @@ pub(super) fn dissipation_distance(
 mod tests {
     use super::*;
     use crate::calibrate::tests::data_of;
+    use crate::diagnose::tests::rms_of;
     use geared_servo::REFERENCE;
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
+
+    /// The reference unit at a 0.5 ms step and its noiseless tachometer record of 3 s of a
+    /// ±6 V square wave, 0.2 s period, after a 0.1 s rest.
+    fn square_wave_record() -> (ActuatorParams, Data) {
+        let h = 5e-4;
+        let mut unit = REFERENCE;
+        unit.sample_period_s = h;
+        let volts: Vec<f64> = (0..6200)
+            .map(|k| match k {
+                0..200 => 0.0,
+                _ if ((k - 200) / 200) % 2 == 0 => 6.0,
+                _ => -6.0,
+            })
+            .collect();
+        let d = data_of(volts, h, Some(&unit));
+        (unit, d)
+    }
 
     /// The floor of a record with a further output is what the right model costs on it
     /// ([`record_floor_cost`]): a load angle beside the tachometer counts at its noise,
@@ -470,17 +488,7 @@ mod tests {
     /// level on the unit's own outputs.
     #[test]
     fn a_further_outputs_floor_is_what_the_right_model_costs_on_it() {
-        let h = 5e-4;
-        let mut unit = REFERENCE;
-        unit.sample_period_s = h;
-        let volts: Vec<f64> = (0..6200)
-            .map(|k| match k {
-                0..200 => 0.0,
-                _ if ((k - 200) / 200) % 2 == 0 => 6.0,
-                _ => -6.0,
-            })
-            .collect();
-        let mut d = data_of(volts, h, Some(&unit));
+        let (unit, mut d) = square_wave_record();
         let n = d.y.len();
         let (angle_noise, backlash) = (2e-3, 0.05);
         let floor = calibrate::Channel::floor_of("load_angle_deg", angle_noise, backlash);
@@ -492,7 +500,7 @@ mod tests {
             scale: 0.0,
         });
         let model = calibrate::output_all(&unit, &d).unwrap();
-        let rms = (d.y.iter().map(|y| y * y).sum::<f64>() / n as f64).sqrt();
+        let rms = rms_of(&d.y);
         let sigma = 0.02 * rms;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
         let mut noise = |s: f64| {
@@ -530,19 +538,8 @@ mod tests {
     /// off is told from the unit in every draw.
     #[test]
     fn two_fits_are_a_tie_within_two_standard_errors_of_their_cost_difference() {
-        let h = 5e-4;
-        let mut unit = REFERENCE;
-        unit.sample_period_s = h;
-        // 3 s of a ±6 V square wave, 0.2 s period, after a 0.1 s rest.
-        let volts: Vec<f64> = (0..6200)
-            .map(|k| match k {
-                0..200 => 0.0,
-                _ if ((k - 200) / 200) % 2 == 0 => 6.0,
-                _ => -6.0,
-            })
-            .collect();
-        let clean = data_of(volts, h, Some(&unit));
-        let rms = (clean.y.iter().map(|y| y * y).sum::<f64>() / clean.y.len() as f64).sqrt();
+        let (unit, clean) = square_wave_record();
+        let rms = rms_of(&clean.y);
         let with_inertia = |f: f64| {
             let mut p = unit;
             p.load.inertia_kg_m2 *= f;
