@@ -236,6 +236,9 @@ struct Row {
 #[ignore = "issue 12 acceptance suite (draws 0-2, 48 cases, about an hour on 2 cores): beyond CI's budget; scores in README.md and docs/diagnose.md; run with --ignored"]
 fn diagnose_names_effects_in_records_of_the_independent_reference() {
     let t_all = Instant::now();
+    // `RUST_LOG=geared_servo_host::diagnose=debug` prints each diagnosis's trace (its
+    // rounds, the resettle's ratios) before the case's verdict line.
+    let _ = env_logger::builder().is_test(true).try_init();
 
     // The reference's fine step: 2 µs against 1 µs (and 0.5 µs, which marks the chaotic
     // bursts where no step converges sample by sample) on one clean estimation record.
