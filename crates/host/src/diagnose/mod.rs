@@ -1319,9 +1319,10 @@ fn resettle(cx: &Ctx, cur: &Fit, wdata: &[Data], data: &[Data]) -> Option<(Fit, 
     // their floor) where the settle from it follows its own is stuck: the rows both keep
     // leave out the very rows it misses, and it can win there (second_mode/1 of the foreign
     // suite before 56b2285, second pass: 0.23 on its own rows, 0.029 against 0.033 on the
-    // rows both keep; second_mode/82, second pass: 3.35x its rows' floor, the settle 1.63x,
-    // the diagnosis ending at 1.69x the floor with the rule and 4.3x without, test
-    // `a_model_stuck_on_rows_it_misses_is_settled_again` of host-tests/tests/diagnose_foreign.rs).
+    // rows both keep; second_mode/82 until the second pass kept the first pass's model where
+    // its settle is worse (fd956fc): 3.35x its rows' floor, the settle 1.63x, the diagnosis
+    // ending at 1.69x the floor with the rule and 4.3x without; since then it is never
+    // stuck there, and the rule has no witness).
     // Only here, where the incumbent has come through a search that found nothing: between
     // the two fresh base settles the same rule picked the wrong basin (tach_gain/1, whose
     // seed at 2.7 times the floor on its own rows is the right one). (Each fit's cost is its
