@@ -1122,3 +1122,45 @@ fn rattle_that_does_not_repeat_sends_no_second_pass() {
         "final {fin:.4} against the truth's {tru:.4} on the same rows"
     );
 }
+
+/// A fold of the held-out check whose rows do not see an effect leaves the effect's value
+/// where the full fit put it (`diagnose::judge::held_out`): the fold's refit is kept only
+/// where it lowers the fold's cost by more than refitting one value to noise alone does on
+/// average. On voltage_limit/1 with the load angle alone (a 7.20 V limit; the fold of the
+/// rests and the fastest bursts, where the angle is at its noise and no model does better
+/// than 1.03 in cost) the limit's refit lowered that fold's cost by 1e-9 of itself and went
+/// to its bound of 20 V; the other parameters, fitted with the limit at 7.16 V, then failed
+/// the other fold (5.72 against 0.043 without the limit), the right limit was refused in the
+/// first pass, and the diagnosis ended `partial` and `unexplained` with a load viscous
+/// friction beside the limit. Now the limit alone is named, at its value. Records of the
+/// independent reference integrator, every parameter perturbed, rattle included.
+#[test]
+#[ignore = "a trace of the search (170 s on 2 cores): beyond CI's budget beside the others; run with `cargo test --release -p geared-servo-host-tests --test diagnose_foreign -- --ignored --skip diagnose_names_effects`"]
+fn a_fold_that_does_not_see_the_voltage_limit_leaves_it_where_the_fit_put_it() {
+    let making = Making {
+        sensors: Sensors::AngleOnly,
+        ..Making::default()
+    };
+    let c = foreign::case_with(Kind::Single(Effect::VoltageLimit), 1, &making).unwrap();
+    let out = c.diagnose(&Options::default()).unwrap();
+    eprintln!("{}: {}", c.label(), fmt_steps(&out));
+    assert!(
+        verdict_right(&c, &out, true),
+        "the limit alone, explained: {} (unexplained {})",
+        fmt_steps(&out),
+        out.unexplained
+    );
+    let step = &out.steps[0];
+    assert!(
+        step.indistinguishable_from.is_empty(),
+        "nothing beside the limit: {}",
+        fmt_steps(&out)
+    );
+    let (_, v) = c.expected[0];
+    let want = c.expected_fitted(Effect::VoltageLimit, v);
+    assert!(
+        (final_value(&out, step) / want - 1.0).abs() <= VALUE_TOL,
+        "limit {} for {want}",
+        final_value(&out, step)
+    );
+}
