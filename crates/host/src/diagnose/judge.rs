@@ -103,7 +103,8 @@ fn held_out(without: &Fit, with: &Fit, data: &[Data]) -> (f64, f64) {
     let mut x = 0.0;
     let mut y = 0.0;
     for (train, test) in [(&a, &b), (&b, &a)] {
-        x += calibrate::cost(&without.params, test);
+        let test_without = calibrate::cost(&without.params, test);
+        x += test_without;
         // Plain least squares on the fold's predictable rows, kept only where it helps on
         // the fold by more than refitting one value to noise alone does on average (one unit
         // of chi-square over the fold's weighted rows): a fold whose rows do not see the
@@ -118,22 +119,19 @@ fn held_out(without: &Fit, with: &Fit, data: &[Data]) -> (f64, f64) {
             calibrate::cost(&with.params, train),
         );
         let rows: f64 = train.iter().map(Data::weight_sum).sum();
-        let p = if c_g < c_w && (c_w - c_g) / c_w * rows > 1.0 {
-            g.params
+        let (p, c_p) = if c_g < c_w && (c_w - c_g) / c_w * rows > 1.0 {
+            (g.params, c_g)
         } else {
-            with.params
+            (with.params, c_w)
         };
-        y += calibrate::cost(&p, test);
+        let test_with = calibrate::cost(&p, test);
+        y += test_with;
         if let Some(k) = effect.first() {
             log::debug!(
-                "    fold: {} {:.4e} refitted to {:.4e}; train {:.8e} -> {:.8e}, test {:.4e} (without {:.4e})",
+                "    fold: {} {:.4e} refitted to {:.4e}; train {c_w:.8e} -> {c_p:.8e}, test {test_with:.4e} (without {test_without:.4e})",
                 k.name(),
                 calibrate::get(&with.params, k.param),
                 calibrate::get(&p, k.param),
-                calibrate::cost(&with.params, train),
-                calibrate::cost(&p, train),
-                calibrate::cost(&p, test),
-                calibrate::cost(&without.params, test)
             );
         }
     }
