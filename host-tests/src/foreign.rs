@@ -610,6 +610,14 @@ impl Default for Making {
 }
 
 impl Making {
+    /// The standard records, carrying the outputs `sensors` names.
+    pub fn with_sensors(sensors: Sensors) -> Making {
+        Making {
+            sensors,
+            ..Making::default()
+        }
+    }
+
     /// The default, with the estimation record's stepped sine lasting `GS_FOREIGN_SECONDS`
     /// seconds when that is set (the suite and the probes on long records).
     ///

@@ -984,10 +984,7 @@ fn the_suite_is_what_the_issue_asks_for() {
 /// reference integrator, every parameter perturbed, rattle included.
 #[test]
 fn a_record_of_the_current_alone_is_fitted_with_the_units_resistance() {
-    let making = Making {
-        sensors: Sensors::CurrentOnly,
-        ..Making::default()
-    };
+    let making = Making::with_sensors(Sensors::CurrentOnly);
     let c = foreign::case_with(Kind::Single(Effect::TachLag), 2, &making).unwrap();
     let out = c.diagnose(&Options::default()).unwrap();
     assert!(out.unseen.contains(&Effect::TachLag), "{:?}", out.unseen);
@@ -1023,10 +1020,7 @@ fn a_record_of_the_current_alone_is_fitted_with_the_units_resistance() {
 /// integrator, every parameter perturbed, rattle included.
 #[test]
 fn the_base_finds_how_the_friction_splits_between_motor_and_load() {
-    let making = Making {
-        sensors: Sensors::CurrentOnly,
-        ..Making::default()
-    };
+    let making = Making::with_sensors(Sensors::CurrentOnly);
     for kind in [Kind::Clean, Kind::Single(Effect::TachOffset)] {
         let c = foreign::case_with(kind, 1, &making).unwrap();
         let opts = Options {
@@ -1060,10 +1054,7 @@ fn the_base_finds_how_the_friction_splits_between_motor_and_load() {
 #[test]
 #[ignore = "a trace of the search (140 s on 2 cores): beyond CI's budget beside the others; run with `cargo test --release -p geared-servo-host-tests --test diagnose_foreign -- --ignored --skip diagnose_names_effects`"]
 fn with_the_current_logged_a_slow_tachometer_is_told_from_a_motor_friction() {
-    let making = Making {
-        sensors: Sensors::WithCurrent,
-        ..Making::default()
-    };
+    let making = Making::with_sensors(Sensors::WithCurrent);
     let c = foreign::case_with(Kind::Single(Effect::TachGain), 28, &making).unwrap();
     assert_eq!(c.fitted_scale(), 1.0);
     let out = diagnosed_in_one_step(&c);
@@ -1137,10 +1128,7 @@ fn rattle_that_does_not_repeat_sends_no_second_pass() {
 #[test]
 #[ignore = "a trace of the search (170 s on 2 cores): beyond CI's budget beside the others; run with `cargo test --release -p geared-servo-host-tests --test diagnose_foreign -- --ignored --skip diagnose_names_effects`"]
 fn a_fold_that_does_not_see_the_voltage_limit_leaves_it_where_the_fit_put_it() {
-    let making = Making {
-        sensors: Sensors::AngleOnly,
-        ..Making::default()
-    };
+    let making = Making::with_sensors(Sensors::AngleOnly);
     let c = foreign::case_with(Kind::Single(Effect::VoltageLimit), 1, &making).unwrap();
     let out = c.diagnose(&Options::default()).unwrap();
     eprintln!("{}: {}", c.label(), fmt_steps(&out));
