@@ -240,10 +240,16 @@ fn distortion(cur: &Fit, f: &Fit) -> f64 {
 /// gain (hinge_stiffness/65 of the foreign suite, both records: the spring 5.44 N·m/rad for
 /// the unit's 5.51, 7 % of the gain on the common rows, 84 % of the linear gain on its own
 /// rows kept switched off, 74 % of the log gain its own: costs 0.414 switched off, 0.0024
-/// with it, 2.57 for the current model).
+/// with it, 2.57 for the current model). A refit no better than the current model on the
+/// common rows has no gain there to share: 0 from those rows (such a refit never earns its
+/// parameter; the share was ±1e300 before, which the debug trace printed).
 fn gain_share(common: (f64, f64, f64), own: (f64, f64, f64)) -> f64 {
     let (ab, fit, cur) = common;
-    let linear = (ab - fit) / (cur - fit).max(f64::MIN_POSITIVE);
+    let linear = if cur > fit {
+        (ab - fit) / (cur - fit)
+    } else {
+        0.0
+    };
     let (ab, fit, cur) = own;
     let log = if cur > fit && fit > 0.0 && ab > 0.0 {
         (ab / fit).ln() / (cur / fit).ln()
@@ -1622,6 +1628,18 @@ mod tests {
         // Its own rows say nothing when the current model is no worse there.
         let s = gain_share((0.2, 0.1, 1.0), (0.3, 0.2, 0.1));
         assert!((s - 0.111).abs() < 1e-3, "{s}");
+        // No gain on the common rows: nothing to share there, whichever way the ablation
+        // goes (a finite share; the log ratio on its own rows still counts).
+        assert_eq!(
+            gain_share((2.0e-3, 1.8e-3, 1.5e-3), (2.0e-3, 1.9e-3, 1.5e-3)),
+            0.0
+        );
+        assert_eq!(
+            gain_share((1.0e-3, 1.8e-3, 1.5e-3), (1.0e-3, 1.9e-3, 1.5e-3)),
+            0.0
+        );
+        let s = gain_share((1.0e-3, 1.8e-3, 1.5e-3), (0.5, 0.1, 1.0));
+        assert!((s - 0.699).abs() < 1e-3, "{s}");
     }
 
     #[test]
