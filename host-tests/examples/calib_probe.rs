@@ -4,7 +4,7 @@
 use geared_servo::ActuatorParams;
 use geared_servo_host::calibrate::{self, Param, BASE_KNOBS};
 use geared_servo_host::diagnose::Options;
-use geared_servo_host::{noise, predictability};
+use geared_servo_host::{noise, params_file, predictability};
 use geared_servo_host_tests::foreign::{self, Kind};
 use std::time::Instant;
 
@@ -140,6 +140,10 @@ fn main() {
         }
         if std::env::var("KEPT").is_ok() {
             kept_bursts(&c);
+            continue;
+        }
+        if std::env::var("SHARES").is_ok() {
+            shares(&c);
             continue;
         }
         if std::env::var("VALPROBE").is_ok() {
@@ -842,6 +846,82 @@ pub fn ensembles(c: &foreign::ForeignCase) {
         calibrate::nrmse(&te, &w) / fl
     );
     println!("ENSEMBLES {}:{line}", c.label());
+}
+
+/// The share of each record's rows kept as predictable, and the NRMSE there against its
+/// floor, under the truth and (`PARAMS=FILE.toml`, e.g. a diagnosis's calibrated model)
+/// under another parameter set: does a model escape a record by calling it unpredictable?
+fn shares(c: &foreign::ForeignCase) {
+    // The truth as it is (a record with the current shows the resistance) and in the
+    // model's form with the file's resistance (a tachometer's or an angle's record does not).
+    let mut models = vec![
+        ("truth".to_string(), c.truth),
+        ("truth, file's R".to_string(), eq_truth(c)),
+    ];
+    if let Ok(path) = std::env::var("PARAMS") {
+        let text = std::fs::read_to_string(&path).unwrap();
+        models.push((path.clone(), params_file::parse(&text, &path).unwrap()));
+    }
+    for (name, p) in &models {
+        let mut line = String::new();
+        for (rec, d) in [("est", &c.estimation), ("val", &c.validation)] {
+            let mut q = *p;
+            q.sample_period_s = d.sample_period_s;
+            let (w, _) = predictability::weigh(&q, d);
+            let fl = noise::floor_nrmse(noise::sigma(&d.y), &w.weight, w.norm);
+            let a = predictability::assess_with(&q, d, &predictability::Settings::default());
+            let b = predictability::assess_with(&q, d, &predictability::WIDE);
+            if std::env::var("SHARES_SPANS").is_ok() {
+                let h = d.sample_period_s;
+                let sp: Vec<String> = a
+                    .spans
+                    .iter()
+                    .map(|(x, y)| format!("{:.3}-{:.3}", *x as f64 * h, *y as f64 * h))
+                    .collect();
+                println!("  {rec} default spans: {}", sp.join(" "));
+            }
+            if std::env::var("SHARES_RATIO").is_ok() && rec == "val" {
+                let dm = d.motion();
+                let center = calibrate::output(&q, &dm).unwrap();
+                let scale: f64 = std::env::var("SHARES_RATIO")
+                    .unwrap()
+                    .parse()
+                    .unwrap_or(1.0);
+                let st = predictability::Settings {
+                    inertia_perturbation: 1e-3 * scale,
+                    friction_perturbation: 5e-3 * scale,
+                    ..Default::default()
+                };
+                let ms: Vec<Vec<f64>> = (0..4)
+                    .map(|m| calibrate::output(&predictability::member(&q, m, &st), &dm).unwrap())
+                    .collect();
+                let w = 50;
+                let mut out = String::new();
+                for j in 0..center.len() / w {
+                    let (mut sp, mut sg) = (0.0, 0.0);
+                    for k in j * w..(j + 1) * w {
+                        sg += center[k] * center[k];
+                        sp += ms.iter().map(|y| (y[k] - center[k]).powi(2)).sum::<f64>() / 4.0;
+                    }
+                    out += &format!(" {:.3}", (sp / sg).sqrt());
+                }
+                println!("  val spread/signal per 25 ms:{out}");
+            }
+            let r = predictability::assess_restarts(&q, d);
+            let r_out = r.iter().filter(|x| **x < 0.5).count() as f64 / r.len().max(1) as f64;
+            line += &format!(
+                "  {rec}: kept {:.3} (out: default {:.3}, wide {:.3}, restarts {:.3}), NRMSE {:.4} (floor {:.4}; on every row {:.4})",
+                1.0 - w.excluded_share(),
+                a.excluded_share,
+                b.excluded_share,
+                r_out,
+                calibrate::nrmse(&q, &w),
+                fl,
+                calibrate::nrmse(&q, d)
+            );
+        }
+        println!("SHARES {} under {name}:{line}", c.label());
+    }
 }
 
 /// Per burst at the truth on the kept rows: kept share and residual energy over noise energy.
