@@ -895,17 +895,22 @@ fn shares(c: &foreign::ForeignCase) {
                 let ms: Vec<Vec<f64>> = (0..4)
                     .map(|m| calibrate::output(&predictability::member(&q, m, &st), &dm).unwrap())
                     .collect();
-                let w = 50;
+                // The assessment's own window (`Settings::window_s`).
+                let w = ((st.window_s / d.sample_period_s).round() as usize).max(1);
                 let mut out = String::new();
                 for j in 0..center.len() / w {
                     let (mut sp, mut sg) = (0.0, 0.0);
                     for k in j * w..(j + 1) * w {
                         sg += center[k] * center[k];
-                        sp += ms.iter().map(|y| (y[k] - center[k]).powi(2)).sum::<f64>() / 4.0;
+                        sp += ms.iter().map(|y| (y[k] - center[k]).powi(2)).sum::<f64>()
+                            / ms.len() as f64;
                     }
                     out += &format!(" {:.3}", (sp / sg).sqrt());
                 }
-                println!("  val spread/signal per 25 ms:{out}");
+                println!(
+                    "  val spread/signal per {:.0} ms window:{out}",
+                    st.window_s * 1e3
+                );
             }
             let r = predictability::assess_restarts(&q, d);
             let r_out = r.iter().filter(|x| **x < 0.5).count() as f64 / r.len().max(1) as f64;
