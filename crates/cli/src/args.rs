@@ -229,6 +229,11 @@ pub struct DiagnoseArgs {
     /// `motor.inertia_kg_m2,load.inertia_kg_m2,motor.resistance_ohm`).
     #[arg(long, value_delimiter = ',')]
     pub fit: Option<Vec<String>>,
+    /// Also bound each effect not added (comma-separated; alone: every candidate): the largest
+    /// value the records do not rule out, every other parameter refitted at each value (a
+    /// profile per effect: minutes on long records).
+    #[arg(long, value_delimiter = ',', num_args = 0.., value_name = "EFFECTS")]
+    pub limits: Option<Vec<String>>,
 }
 
 /// Arguments of `geared-servo init` (docs/datasheet.md). Figures of the gear motor at its

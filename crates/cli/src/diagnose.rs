@@ -5,7 +5,7 @@ use crate::common::{load_params, read_record, Report};
 use crate::progress::spinner;
 use geared_servo::Effect;
 use geared_servo_host::calibrate::Data;
-use geared_servo_host::diagnose::{diagnose_with, fittable, Options};
+use geared_servo_host::diagnose::{diagnose_with, effects_or_all, fittable, Options};
 use geared_servo_host::diagnose_report::insert;
 use geared_servo_host::HostError;
 use serde_json::json;
@@ -37,6 +37,10 @@ pub fn run(cli: &Cli, a: &DiagnoseArgs) -> Result<Report, HostError> {
                 Effect::from_name(n).map_err(|e| HostError::input(format!("--candidates: {e}")))
             })
             .collect::<Result<_, _>>()?;
+    }
+    if let Some(l) = &a.limits {
+        opts.limits = effects_or_all(l, &opts.candidates)
+            .map_err(|e| HostError::input(format!("--limits: {e}")))?;
     }
     if let Some(f) = &a.fit {
         fittable(&p, f).map_err(|e| HostError::input(format!("--fit: {}", e.message)))?;

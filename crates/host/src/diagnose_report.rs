@@ -2,6 +2,7 @@
 //! command itself (files in, plots and the calibrated parameter file out).
 
 use crate::calibrate::{self, Data, Fit, Knob};
+use crate::diagnose::limits::{Limit, LimitKind};
 use crate::diagnose::{part_above, Outcome, ResidualKind};
 use crate::predictability;
 use crate::repeat::{Coherent, Repeating};
@@ -163,6 +164,17 @@ impl Outcome {
             json!({"sigma": self.noise_sigma, "floor_nrmse": self.floor_nrmse, "robust_floor_ratio": self.robust_floor_ratio, "residual": self.residual.name()}),
         );
         insert(&mut v, "fitted_outputs", json!(self.fitted_outputs));
+        if !self.limits.is_empty() {
+            insert(
+                &mut v,
+                "limits",
+                json!(self
+                    .limits
+                    .iter()
+                    .map(|l| json!({"effect": l.effect.name(), "unit": l.effect.unit(), "side": if l.side < 0.0 { "-" } else { "+" }, "limit": l.value, "kind": l.kind.name(), "most_favoured": {"value": l.best.0, "n_ln_cost_ratio": l.best.1, "strongly": l.favoured}}))
+                    .collect::<Vec<_>>()),
+            );
+        }
         insert(
             &mut v,
             "unseen_candidates",
@@ -283,6 +295,25 @@ impl Outcome {
             worst.model_rms,
             worst.ratio(sigma)
         ))
+    }
+
+    /// The summary's lines of the limits, one per effect ([`crate::diagnose::limits`]).
+    pub fn limit_lines(&self) -> Vec<String> {
+        let mut lines = Vec::new();
+        let mut seen: Vec<geared_servo::Effect> = Vec::new();
+        for l in &self.limits {
+            if seen.contains(&l.effect) {
+                continue;
+            }
+            seen.push(l.effect);
+            let sides: Vec<&Limit> = self
+                .limits
+                .iter()
+                .filter(|m| m.effect == l.effect)
+                .collect();
+            lines.push(limit_line(l.effect, &sides, self.bic_threshold));
+        }
+        lines
     }
 
     /// Human summary.
@@ -468,6 +499,15 @@ impl Outcome {
             }
             bound_lines(&mut s, &self.final_fit);
         }
+        block(
+            &mut s,
+            &format!(
+                "limits of the effects not added (each held at a value, the rest refitted on the final model's rows; ruled out where that refit is worse by n ln(cost ratio) > {:.0} and by a material residual, {}x the floor, on its own):",
+                -self.bic_threshold,
+                self.material_ratio
+            ),
+            self.limit_lines(),
+        );
         let f = &self.final_analysis;
         let _ = writeln!(
             s,
@@ -581,6 +621,35 @@ fn per_record<T: Copy>(
             line(&what, *r)
         })
         .collect()
+}
+
+/// One effect's limits for the summary: both sides of a signed one on one line, and the
+/// value the walk found best where its evidence beats `bic_threshold` (negative).
+fn limit_line(effect: geared_servo::Effect, sides: &[&Limit], bic_threshold: f64) -> String {
+    let unit = effect.unit();
+    let side = |l: &Limit| match l.kind {
+        LimitKind::BelowRange => format!("ruled out from {:+.3e}", l.value),
+        LimitKind::Within => format!("up to {:+.3e}", l.value),
+        LimitKind::BeyondRange => format!("not ruled out up to {:+.3e}", l.value),
+    };
+    let mut line = format!(
+        "  {:<22} {} {unit}",
+        effect.name(),
+        sides.iter().map(|l| side(l)).collect::<Vec<_>>().join(", ")
+    );
+    if sides.iter().all(|l| l.kind == LimitKind::BeyondRange) {
+        line.push_str(": these records cannot show it anywhere in its plausible range");
+    }
+    let best = sides.iter().min_by(|a, b| a.best.1.total_cmp(&b.best.1));
+    if let Some(l) = best.filter(|l| l.best.1 < bic_threshold) {
+        let (v, e) = l.best;
+        line.push_str(&if sides.iter().any(|l| l.favoured) {
+            format!(" (favoured at {v:+.3e} by {e:.1}, not added: see the candidates refused)")
+        } else {
+            format!(" (leaning to {v:+.3e} by {e:.1}, an immaterial share of the residual)")
+        });
+    }
+    line
 }
 
 /// Writes `title` and `lines` under it to `s`, nothing when there are no lines.

@@ -7,7 +7,7 @@ use crate::record::record_of;
 use crate::{detached, py_err, py_json, InputError};
 use geared_servo::Effect;
 use geared_servo_host::calibrate::{self, Data};
-use geared_servo_host::diagnose::{diagnose_with as run, fittable, Options};
+use geared_servo_host::diagnose::{diagnose_with as run, effects_or_all, fittable, Options};
 use geared_servo_host::diagnose_report::insert;
 use geared_servo_host::{params_file, HostError, Progress};
 use numpy::{IntoPyArray, PyArray1};
@@ -98,14 +98,16 @@ impl Progress for Stages {
 /// the residual and adds the effects that explain it, as `geared-servo diagnose`.
 /// `validate` is a record that is not fitted (`--validate`), `candidates` the effect names
 /// to try (`--candidates`, default all), `max_steps` the most effects added, `fit` the key
-/// paths to calibrate instead of the default set (`--fit`). `progress`, a callable, receives
-/// each phase as it ends (a diagnosis of a long record takes minutes; `progress=print`
-/// shows where it is). Between phases an interrupt stops the diagnosis (KeyboardInterrupt),
-/// as does an exception of `progress` (raised again here).
+/// paths to calibrate instead of the default set (`--fit`), `limits` the effects to bound
+/// that the diagnosis did not add (`--limits`; an empty list: every candidate; the report's
+/// `limits` key). `progress`, a callable, receives each phase as it ends (a diagnosis of a
+/// long record takes minutes; `progress=print` shows where it is). Between phases an
+/// interrupt stops the diagnosis (KeyboardInterrupt), as does an exception of `progress`
+/// (raised again here).
 // One Rust argument per keyword argument of the Python function.
 #[allow(clippy::too_many_arguments)]
 #[pyfunction]
-#[pyo3(signature = (params, record, validate = None, candidates = None, max_steps = 3, fit = None, progress = None))]
+#[pyo3(signature = (params, record, validate = None, candidates = None, max_steps = 3, fit = None, progress = None, limits = None))]
 pub fn diagnose<'py>(
     py: Python<'py>,
     params: PyRef<'py, Params>,
@@ -115,6 +117,7 @@ pub fn diagnose<'py>(
     max_steps: usize,
     fit: Option<Vec<String>>,
     progress: Option<Py<PyAny>>,
+    limits: Option<Vec<String>>,
 ) -> PyResult<Diagnosis> {
     let (p, name) = (params.p, params.name.clone());
     let records: Vec<Bound<'py, PyAny>> =
@@ -149,6 +152,10 @@ pub fn diagnose<'py>(
                 Effect::from_name(n).map_err(|e| InputError::new_err(format!("--candidates: {e}")))
             })
             .collect::<PyResult<_>>()?;
+    }
+    if let Some(l) = &limits {
+        opts.limits = effects_or_all(l, &opts.candidates)
+            .map_err(|e| InputError::new_err(format!("limits: {e}")))?;
     }
     if let Some(f) = &fit {
         fittable(&p, f).map_err(|e| InputError::new_err(format!("--fit: {}", e.message)))?;

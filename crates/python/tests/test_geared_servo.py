@@ -224,6 +224,27 @@ def test_diagnose_returns_the_documented_report_and_the_clis_numbers(measured, c
     assert err(d.model_after) < err(d.model_before)
 
 
+def test_limits_are_the_clis(measured, cli):
+    path, record = measured
+    p = gs.Params.reference()
+    d = gs.diagnose(p, str(path), max_steps=0, limits=["load_viscous", "tach_offset"])
+    limits = d.report["limits"]
+    assert sorted((x["effect"], x["side"]) for x in limits) == [
+        ("load_viscous", "+"),
+        ("tach_offset", "+"),
+        ("tach_offset", "-"),
+    ]
+    for x in limits:
+        assert x["kind"] in ("within", "below_range", "beyond_range")
+        assert (x["limit"] > 0) == (x["side"] == "+")
+    run = cli("diagnose", "--data", path, "--max-steps", 0, "--limits", "load_viscous,tach_offset", "--json")
+    assert run.returncode == 0, run.stderr
+    assert d.report == json.loads(run.stdout)
+    assert "limits" not in gs.diagnose(p, str(path), max_steps=0).report
+    with pytest.raises(gs.InputError, match=r"^limits: unknown effect `nope`"):
+        gs.diagnose(p, str(path), max_steps=0, limits=["nope"])
+
+
 def test_a_dataframe_or_a_dict_is_the_same_record_as_its_csv(measured):
     path, record = measured
     p = gs.Params.reference()

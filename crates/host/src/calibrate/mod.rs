@@ -73,6 +73,19 @@ pub fn polish_point(p0: &ActuatorParams, knobs: &[Knob], data: &[Data], patience
     }
 }
 
+/// Levenberg–Marquardt on the plain least-squares loss of `data` from `p0` (no robust window
+/// loss), with at most `patience` (MINPACK's) evaluations per knob, without the standard
+/// errors: the point and its cost on `data`. For a profile, whose points are compared on
+/// that loss ([`crate::diagnose::limits`]).
+pub fn least_squares_point(
+    p0: &ActuatorParams,
+    knobs: &[Knob],
+    data: &[Data],
+    patience: usize,
+) -> Point {
+    lm_point(p0, knobs, data, patience).1
+}
+
 /// Calibrates `knobs` from `p0`: the cost is multimodal (MODEL.md: backlash lowers the notch
 /// by an amount that depends on the amplitude, inertia does not, and a fit from the file can
 /// stop in the basin that trades one for the other) and, on records of a rig, a patchwork of

@@ -284,7 +284,7 @@ fn follows_own_rows(fit: (f64, f64), cur: (f64, f64), n_eff: f64) -> bool {
 }
 
 /// Lag-1 autocorrelation of the stacked residuals of `p` (first record).
-fn effective_samples(p: &ActuatorParams, data: &[Data]) -> f64 {
+pub(super) fn effective_samples(p: &ActuatorParams, data: &[Data]) -> f64 {
     let n: f64 = data.iter().map(Data::weight_sum).sum();
     let Some(d) = data.first() else { return 1.0 };
     let Some(t) = calibrate::output(p, d) else {

@@ -46,6 +46,7 @@
 
 mod judge;
 mod kin;
+pub mod limits;
 mod search;
 mod settle;
 
@@ -96,6 +97,10 @@ pub struct Options {
     /// Parameters to calibrate instead of the default set (key paths of
     /// [`calibrate::FITTABLE`]); `None`: the default set.
     pub fit: Option<Vec<String>>,
+    /// Effects to bound where the diagnosis did not add them ([`limits`]: the largest value
+    /// the records do not rule out, a profile of refits per effect); empty (the default):
+    /// none.
+    pub limits: Vec<Effect>,
 }
 
 impl Default for Options {
@@ -111,6 +116,7 @@ impl Default for Options {
             plausibility_slack: 2.0,
             predictability: true,
             fit: None,
+            limits: Vec::new(),
         }
     }
 }
@@ -236,6 +242,8 @@ pub struct Outcome {
     pub residual: ResidualKind,
     /// The limit over the floor the residual was judged by ([`Options::material_ratio`]).
     pub material_ratio: f64,
+    /// The ΔBIC an effect had to beat ([`Options::bic_threshold`]).
+    pub bic_threshold: f64,
     /// Candidate scores of the last search: (effect, predicted NRMSE, start value).
     pub last_scores: Vec<(Effect, f64, f64)>,
     /// The candidates of the last search that were refitted and not added, best first.
@@ -274,6 +282,9 @@ pub struct Outcome {
     pub repeating: Vec<Option<Repeating>>,
     /// The same on the validation record, when it was given.
     pub validation_repeating: Option<Repeating>,
+    /// How large each candidate that was not added may be ([`limits::limits`]), when
+    /// [`Options::limits`] asked for it; empty otherwise.
+    pub limits: Vec<limits::Limit>,
     /// Per fitted record whose command holds sine bursts ([`crate::repeat::sine_bursts`]:
     /// a stepped sine), the final model's residual over every row and the part of it
     /// coherent with the bursts' frequencies; `None` for a record without sine bursts. A
@@ -348,6 +359,19 @@ pub fn diagnose(
     diagnose_with(file_params, data, validation, opts, &())
 }
 
+/// The effects `names` names (canonical names, [`Effect::from_name`]), or `all` when it
+/// names none: a front end's list of effects to bound ([`Options::limits`]; `--limits` alone
+/// bounds every candidate).
+pub fn effects_or_all<'a>(
+    names: &'a [String],
+    all: &[Effect],
+) -> Result<Vec<Effect>, geared_servo::UnknownEffect<'a>> {
+    if names.is_empty() {
+        return Ok(all.to_vec());
+    }
+    names.iter().map(|n| Effect::from_name(n)).collect()
+}
+
 /// [`diagnose`] reporting each phase it completes to `progress` ([`Progress::stage`], the
 /// same lines as the debug trace, without its counts): a diagnosis takes minutes on long
 /// records, and a command line or a notebook can show where it is. After each phase it
@@ -365,7 +389,28 @@ pub fn diagnose_with(
     let b = file_params.backlash_deg;
     let data: Vec<Data> = data.iter().map(|d| d.with_backlash(b)).collect();
     let validation = validation.map(|v| v.with_backlash(b));
-    let (data, validation) = (data.as_slice(), validation.as_ref());
+    let mut out = passes(file_params, &data, validation.as_ref(), opts, progress)?;
+    if !opts.limits.is_empty() {
+        let mut fitted = data;
+        if let (Some(v), Some(_)) = (validation, out.validation_in_fit) {
+            fitted.push(v);
+        }
+        out.limits = limits::limits(&out, &fitted, opts);
+        let line = "limits of the effects not added";
+        log::debug!("{line}");
+        progress.stage(line);
+    }
+    Ok(out)
+}
+
+/// The passes of [`diagnose_with`] over the records (with the file's gap for an angle).
+fn passes(
+    file_params: &ActuatorParams,
+    data: &[Data],
+    validation: Option<&Data>,
+    opts: &Options,
+    progress: &dyn Progress,
+) -> Result<Outcome, HostError> {
     let out = diagnose_records(
         file_params,
         data,
@@ -1607,6 +1652,7 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
         robust_floor_ratio: robust_ratio,
         residual,
         material_ratio: opts.material_ratio,
+        bic_threshold: opts.bic_threshold,
         unpredictable_share: wdata.iter().map(Data::excluded_share).collect(),
         weights: wdata.iter().map(|d| d.weight.clone()).collect(),
         noise_sigma: cx.sigma.clone(),
@@ -1624,6 +1670,7 @@ fn conclude(cx: &Ctx, found: Found) -> Result<Outcome, HostError> {
         validation_in_fit: None,
         last_scores,
         rejected,
+        limits: Vec::new(),
     })
 }
 
