@@ -802,6 +802,23 @@ fn limits_of_an_effect_the_records_cannot_show_do_not_rule_out_the_unit() {
     );
 }
 
+/// The same on the held-out units the diagnosis got wrong by leaving their effect out
+/// (2026-12-08): stiction_ratio/86 (the unit's 2.16; the walk leans to 2.06 and rules out
+/// nothing up to 3.0), stiction_ratio/88 (2.03; its profile ragged, nothing ruled out) and
+/// tach_gain/88 (−6.8 %; a dead band named instead, the gain allowed to −9.0 %).
+#[test]
+#[ignore = "a trace of the limits (7 min beside other runs on 2 cores): beyond CI's budget beside the others; run with `cargo test --release -p geared-servo-host-tests --test diagnose_foreign -- --ignored --skip diagnose_names_effects`"]
+fn limits_do_not_rule_out_the_effects_the_diagnosis_missed() {
+    for (kind, draw) in [
+        (Effect::StictionRatio, 86),
+        (Effect::StictionRatio, 88),
+        (Effect::TachGain, 88),
+    ] {
+        let c = foreign::case(Kind::Single(kind), draw).unwrap();
+        limits_cover_the_unit(&c, &[kind]);
+    }
+}
+
 /// A hanging arm whose records cannot tell its gravity from a hinge spring: on
 /// gravity_torque/29 the stepped sine swings the arm by a few degrees (a spring of stiffness
 /// T, exactly, in the plant's linear part), and the square wave's large swings fall in its

@@ -2,7 +2,7 @@
 //! command itself (files in, plots and the calibrated parameter file out).
 
 use crate::calibrate::{self, Data, Fit, Knob};
-use crate::diagnose::limits::{Limit, LimitKind};
+use crate::diagnose::limits::{descends, Limit, LimitKind};
 use crate::diagnose::{part_above, Outcome, ResidualKind};
 use crate::predictability;
 use crate::repeat::{Coherent, Repeating};
@@ -627,10 +627,16 @@ fn per_record<T: Copy>(
 /// value the walk found best where its evidence beats `bic_threshold` (negative).
 fn limit_line(effect: geared_servo::Effect, sides: &[&Limit], bic_threshold: f64) -> String {
     let unit = effect.unit();
+    // The voltage limit clips more the lower it is: its walk goes down.
+    let (to, from) = if descends(effect) {
+        ("down to", "below")
+    } else {
+        ("up to", "from")
+    };
     let side = |l: &Limit| match l.kind {
-        LimitKind::BelowRange => format!("ruled out from {:+.3e}", l.value),
-        LimitKind::Within => format!("up to {:+.3e}", l.value),
-        LimitKind::BeyondRange => format!("not ruled out up to {:+.3e}", l.value),
+        LimitKind::BelowRange => format!("ruled out {from} {:+.3e}", l.value),
+        LimitKind::Within => format!("{to} {:+.3e}", l.value),
+        LimitKind::BeyondRange => format!("not ruled out {to} {:+.3e}", l.value),
     };
     let mut line = format!(
         "  {:<22} {} {unit}",

@@ -21,11 +21,12 @@
 //! The walk goes up the effect's plausible range (the registry's prior, clamped into its
 //! knob's bounds) on a log grid of [`GRID_POINTS`], stops at the first value disfavoured and
 //! bisects [`BISECTIONS`] times between it and the last one allowed: a profile is assumed to
-//! rise once it rises. A signed effect and a gain error are walked on both sides. The
-//! background mesh damping is fitted in every model and the voltage limit acts below the
-//! commands rather than above a threshold; neither is bounded here. Neither is an effect the
-//! final model has (its value has a standard error instead) or one whose sensor no record
-//! carries.
+//! rise once it rises. A signed effect and a gain error are walked on both sides; the
+//! voltage limit, which clips more the lower it is, is walked down from just below the
+//! largest command (a limit above it does nothing) and its limit is the lowest value
+//! allowed. The background mesh damping is fitted in every model and is not bounded here;
+//! neither is an effect the final model has (its value has a standard error instead) or one
+//! whose sensor no record carries.
 //!
 //! The rows are the final model's: a value that makes the model rattle on rows the final
 //! model follows pays for it there, so a limit leans towards ruling values out rather than
@@ -79,7 +80,9 @@ pub struct Limit {
     /// The side walked: +1, or −1 for the negative side of a signed effect or a gain error.
     pub side: f64,
     /// The largest value on that side (signed, in the effect's unit) that the records do not
-    /// disfavour; see [`LimitKind`] for the ends of the range.
+    /// rule out — for the voltage limit ([`descends`]) the lowest; see [`LimitKind`] for the
+    /// ends of the range (for the voltage limit "below the range" is just below the largest
+    /// command: every clipping is ruled out).
     pub value: f64,
     /// Where it lies against the plausible range.
     pub kind: LimitKind,
@@ -93,19 +96,22 @@ pub struct Limit {
     pub favoured: bool,
 }
 
-/// The values walked on one side of `effect`: `GRID_POINTS` log spaced over the magnitude of
-/// its plausible range (a signed range by its larger end, from a three-hundredth of it),
-/// clamped into its knob's bounds `(lo, hi)`; empty when the side has no range.
-fn walk(effect: Effect, side: f64, bounds: (f64, f64)) -> Vec<f64> {
+/// The values walked on one side of `effect`, from the weakest to the strongest:
+/// `GRID_POINTS` log spaced over the magnitude of its plausible range (a signed range by its
+/// larger end, from a three-hundredth of it), clamped into its knob's bounds `(lo, hi)`. The
+/// voltage limit is walked down, from just below the largest command `max_v` (a limit above
+/// it does nothing) to the low end of its range. Empty when the side has no range.
+fn walk(effect: Effect, side: f64, bounds: (f64, f64), max_v: f64) -> Vec<f64> {
     let (lo, hi) = effect.plausible_range();
     let (a, b) = match effect.domain() {
+        _ if descends(effect) => (0.999 * max_v.min(hi), lo),
         Domain::Signed | Domain::GainError => {
             let m = lo.abs().max(hi.abs());
             (m / 300.0, m)
         }
         _ => (lo, hi),
     };
-    if !(a > 0.0 && b > a) {
+    if !(a > 0.0 && b > 0.0 && (b > a) != descends(effect)) {
         return Vec::new();
     }
     let n = GRID_POINTS.max(2);
@@ -128,7 +134,13 @@ fn sides(effect: Effect) -> &'static [f64] {
 
 /// Whether `effect` is bounded here (module doc).
 fn bounded(effect: Effect) -> bool {
-    !matches!(effect, Effect::MeshDamping | Effect::VoltageLimit)
+    effect != Effect::MeshDamping
+}
+
+/// Whether `effect` grows stronger as its value falls (the voltage limit: a lower limit clips
+/// more), so that its walk goes down and its limit is the lowest value allowed.
+pub fn descends(effect: Effect) -> bool {
+    effect == Effect::VoltageLimit
 }
 
 /// The limits of every effect of [`Options::limits`] that `out` did not add, on the records `data`
@@ -181,7 +193,7 @@ pub fn limits(out: &Outcome, data: &[Data], opts: &Options) -> Vec<Limit> {
         .par_iter()
         .filter_map(|&(effect, side)| {
             let k = calibrate::knob(&reference.params, Param::Effect(effect), max_v);
-            let grid = walk(effect, side, (k.lo, k.hi));
+            let grid = walk(effect, side, (k.lo, k.hi), max_v);
             let first = *grid.first()?;
             let last = *grid.last()?;
             // The refit with the effect at `v` from `from`; `None` for a value the model
@@ -266,19 +278,26 @@ mod tests {
 
     #[test]
     fn the_walk_spans_the_plausible_range_on_each_side_inside_the_knobs_bounds() {
-        let v = walk(Effect::StictionRatio, 1.0, (1.0, 10.0));
+        let v = walk(Effect::StictionRatio, 1.0, (1.0, 10.0), 10.0);
         assert_eq!(v.len(), GRID_POINTS);
         assert!((v[0] - 1.1).abs() < 1e-12 && (v[GRID_POINTS - 1] - 3.0).abs() < 1e-12);
         assert!(v.windows(2).all(|w| w[1] > w[0]));
-        let neg = walk(Effect::TachOffset, -1.0, (-1.0, 1.0));
+        let neg = walk(Effect::TachOffset, -1.0, (-1.0, 1.0), 10.0);
         assert!(neg.iter().all(|x| *x < 0.0));
         assert!((neg[GRID_POINTS - 1] + 0.3).abs() < 1e-12);
         assert!((neg[0] + 0.001).abs() < 1e-12);
         // A delay's knob stops at its history: the walk stops there too, without repeats.
-        let d = walk(Effect::InputDelay, 1.0, (0.0, 1e-3));
+        let d = walk(Effect::InputDelay, 1.0, (0.0, 1e-3), 10.0);
         assert!(d.iter().all(|x| *x <= 1e-3) && d.windows(2).all(|w| w[1] > w[0]));
         assert_eq!(sides(Effect::TachGain), &[1.0, -1.0]);
         assert_eq!(sides(Effect::LoadViscous), &[1.0]);
-        assert!(!bounded(Effect::MeshDamping) && !bounded(Effect::VoltageLimit));
+        assert!(!bounded(Effect::MeshDamping) && bounded(Effect::VoltageLimit));
+        // The voltage limit goes down from just below the largest command to its range's
+        // low end; with every command below that end there is nothing to walk.
+        let v = walk(Effect::VoltageLimit, 1.0, (0.2, 20.0), 10.0);
+        assert_eq!(v.len(), GRID_POINTS);
+        assert!((v[0] - 9.99).abs() < 1e-9 && (v[GRID_POINTS - 1] - 5.0).abs() < 1e-9);
+        assert!(v.windows(2).all(|w| w[1] < w[0]));
+        assert!(walk(Effect::VoltageLimit, 1.0, (0.08, 8.0), 4.0).is_empty());
     }
 }
