@@ -297,23 +297,13 @@ impl Outcome {
         ))
     }
 
-    /// The summary's lines of the limits, one per effect ([`crate::diagnose::limits`]).
+    /// The summary's lines of the limits, one per effect ([`crate::diagnose::limits`], which
+    /// lists an effect's sides together).
     pub fn limit_lines(&self) -> Vec<String> {
-        let mut lines = Vec::new();
-        let mut seen: Vec<geared_servo::Effect> = Vec::new();
-        for l in &self.limits {
-            if seen.contains(&l.effect) {
-                continue;
-            }
-            seen.push(l.effect);
-            let sides: Vec<&Limit> = self
-                .limits
-                .iter()
-                .filter(|m| m.effect == l.effect)
-                .collect();
-            lines.push(limit_line(l.effect, &sides, self.bic_threshold));
-        }
-        lines
+        self.limits
+            .chunk_by(|a, b| a.effect == b.effect)
+            .filter_map(|sides| limit_line(sides, self.bic_threshold))
+            .collect()
     }
 
     /// Human summary.
@@ -623,9 +613,10 @@ fn per_record<T: Copy>(
         .collect()
 }
 
-/// One effect's limits for the summary: both sides of a signed one on one line, and the
-/// value the walk found best where its evidence beats `bic_threshold` (negative).
-fn limit_line(effect: geared_servo::Effect, sides: &[&Limit], bic_threshold: f64) -> String {
+/// One effect's limits for the summary (`sides`: its one or two [`Limit`]s), on one line,
+/// with the value the walk found best where its evidence beats `bic_threshold` (negative).
+fn limit_line(sides: &[Limit], bic_threshold: f64) -> Option<String> {
+    let effect = sides.first()?.effect;
     let unit = effect.unit();
     // The voltage limit clips more the lower it is: its walk goes down.
     let (to, from) = if descends(effect) {
@@ -641,7 +632,7 @@ fn limit_line(effect: geared_servo::Effect, sides: &[&Limit], bic_threshold: f64
     let mut line = format!(
         "  {:<22} {} {unit}",
         effect.name(),
-        sides.iter().map(|l| side(l)).collect::<Vec<_>>().join(", ")
+        sides.iter().map(side).collect::<Vec<_>>().join(", ")
     );
     if sides.iter().all(|l| l.kind == LimitKind::BeyondRange) {
         line.push_str(": these records cannot show it anywhere in its plausible range");
@@ -655,7 +646,7 @@ fn limit_line(effect: geared_servo::Effect, sides: &[&Limit], bic_threshold: f64
             format!(" (leaning to {v:+.3e} by {e:.1}, an immaterial share of the residual)")
         });
     }
-    line
+    Some(line)
 }
 
 /// Writes `title` and `lines` under it to `s`, nothing when there are no lines.

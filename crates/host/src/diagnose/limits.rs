@@ -157,10 +157,7 @@ pub fn limits(out: &Outcome, data: &[Data], opts: &Options) -> Vec<Limit> {
     }
     let fin = &out.final_fit;
     let knobs = fin.knobs.clone();
-    let max_v = data
-        .iter()
-        .flat_map(|d| d.volts.iter())
-        .fold(0.0_f64, |m, v| m.max(v.abs()));
+    let max_v = data.iter().map(Data::max_abs_v).fold(0.0, f64::max);
     // The reference: the same refit with the effect off.
     let reference = calibrate::least_squares_point(&fin.params, &knobs, &wdata, PATIENCE);
     let n_eff = judge::effective_samples(&reference.params, &wdata);
@@ -222,16 +219,17 @@ pub fn limits(out: &Outcome, data: &[Data], opts: &Options) -> Vec<Limit> {
             // Records the point's evidence; whether it is allowed.
             let mut note = |v: f64, p: &Point| {
                 let e = evidence(p);
+                let out = ruled_out(p);
                 log::debug!(
                     "  limits: {effect} at {v:.4e}: cost x{:.4} of the effect off, n ln ratio {e:.1}, {}",
                     p.cost / reference.cost,
-                    if ruled_out(p) { "ruled out" } else { "allowed" }
+                    if out { "ruled out" } else { "allowed" }
                 );
                 if e < best.1 {
                     best = (v, e);
                 }
                 favoured |= favours(p);
-                !ruled_out(p)
+                !out
             };
             // The walk: the last value allowed (with its point) and the first disfavoured.
             let mut allowed: Option<(f64, Point)> = None;
