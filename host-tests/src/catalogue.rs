@@ -251,7 +251,7 @@ fn cli_rows() -> Vec<Row> {
         ],
     ]
     .concat();
-    let cases: [&[&str]; 12] = [
+    let cases: [&[&str]; 14] = [
         &["frobnicate"],
         &["simulate", "--input", "in.csv"],
         &["bode", "--vpk", "ten"],
@@ -261,6 +261,20 @@ fn cli_rows() -> Vec<Row> {
         &["bode", "--vpk", "nan"],
         &["max-backlash", "--bandwidth-hz", "0", "--vpk", "10"],
         &["diagnose", "--data", "missing.csv"],
+        &[
+            "diagnose",
+            "--data",
+            "missing.csv",
+            "--candidates",
+            "stiction",
+        ],
+        &[
+            "diagnose",
+            "--data",
+            "missing.csv",
+            "--limits",
+            "tach_gain,nope",
+        ],
         &init_neg,
         &init_none,
         &init_mismatch,

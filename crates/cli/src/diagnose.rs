@@ -3,9 +3,8 @@
 use crate::args::{Cli, DiagnoseArgs};
 use crate::common::{load_params, read_record, Report};
 use crate::progress::spinner;
-use geared_servo::Effect;
 use geared_servo_host::calibrate::Data;
-use geared_servo_host::diagnose::{diagnose_with, effects_or_all, fittable, Options};
+use geared_servo_host::diagnose::{diagnose_with, options_by_name};
 use geared_servo_host::diagnose_report::insert;
 use geared_servo_host::HostError;
 use serde_json::json;
@@ -14,6 +13,16 @@ use serde_json::json;
 pub fn run(cli: &Cli, a: &DiagnoseArgs) -> Result<Report, HostError> {
     use geared_servo_host::{diagnose_plots, params_file, record};
     let (p, name) = load_params(cli, None)?;
+    // The options before the records: a misspelt effect is reported before a long record is
+    // read.
+    let opts = options_by_name(
+        &p,
+        a.max_steps,
+        a.candidates.as_deref(),
+        a.limits.as_deref(),
+        a.fit.as_deref(),
+        "--",
+    )?;
     let mut data = Vec::new();
     for path in &a.data {
         let rec = read_record(&p, path, true)?;
@@ -26,26 +35,6 @@ pub fn run(cli: &Cli, a: &DiagnoseArgs) -> Result<Report, HostError> {
         }
         None => None,
     };
-    let mut opts = Options {
-        max_steps: a.max_steps,
-        ..Options::default()
-    };
-    if let Some(c) = &a.candidates {
-        opts.candidates = c
-            .iter()
-            .map(|n| {
-                Effect::from_name(n).map_err(|e| HostError::input(format!("--candidates: {e}")))
-            })
-            .collect::<Result<_, _>>()?;
-    }
-    if let Some(l) = &a.limits {
-        opts.limits = effects_or_all(l, &opts.candidates)
-            .map_err(|e| HostError::input(format!("--limits: {e}")))?;
-    }
-    if let Some(f) = &a.fit {
-        fittable(&p, f).map_err(|e| HostError::input(format!("--fit: {}", e.message)))?;
-        opts.fit = Some(f.clone());
-    }
     // Minutes on long records: the phase it is in, on a terminal.
     let bar = spinner("diagnose");
     let out = diagnose_with(&p, &data, val.as_ref(), &opts, &bar);

@@ -5,9 +5,8 @@
 use crate::params::Params;
 use crate::record::record_of;
 use crate::{detached, py_err, py_json, InputError};
-use geared_servo::Effect;
 use geared_servo_host::calibrate::{self, Data};
-use geared_servo_host::diagnose::{diagnose_with as run, effects_or_all, fittable, Options};
+use geared_servo_host::diagnose::{diagnose_with as run, options_by_name};
 use geared_servo_host::diagnose_report::insert;
 use geared_servo_host::{params_file, HostError, Progress};
 use numpy::{IntoPyArray, PyArray1};
@@ -141,26 +140,15 @@ pub fn diagnose<'py>(
         }
         None => None,
     };
-    let mut opts = Options {
+    let opts = options_by_name(
+        &p,
         max_steps,
-        ..Options::default()
-    };
-    if let Some(c) = &candidates {
-        opts.candidates = c
-            .iter()
-            .map(|n| {
-                Effect::from_name(n).map_err(|e| InputError::new_err(format!("--candidates: {e}")))
-            })
-            .collect::<PyResult<_>>()?;
-    }
-    if let Some(l) = &limits {
-        opts.limits = effects_or_all(l, &opts.candidates)
-            .map_err(|e| InputError::new_err(format!("limits: {e}")))?;
-    }
-    if let Some(f) = &fit {
-        fittable(&p, f).map_err(|e| InputError::new_err(format!("--fit: {}", e.message)))?;
-        opts.fit = Some(f.clone());
-    }
+        candidates.as_deref(),
+        limits.as_deref(),
+        fit.as_deref(),
+        "",
+    )
+    .map_err(py_err)?;
     let first = data
         .first()
         .cloned()

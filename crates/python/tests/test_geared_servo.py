@@ -245,6 +245,15 @@ def test_limits_are_the_clis(measured, cli):
         gs.diagnose(p, str(path), max_steps=0, limits=["nope"])
 
 
+def test_a_misspelt_option_is_named_by_its_keyword(measured):
+    path, record = measured
+    p = gs.Params.reference()
+    with pytest.raises(gs.InputError, match=r"^candidates: unknown effect `stiction`"):
+        gs.diagnose(p, str(path), candidates=["load_viscous", "stiction"])
+    with pytest.raises(gs.InputError, match=r"^fit: `nope` cannot be calibrated"):
+        gs.diagnose(p, str(path), fit=["nope"])
+
+
 def test_a_dataframe_or_a_dict_is_the_same_record_as_its_csv(measured):
     path, record = measured
     p = gs.Params.reference()

@@ -359,17 +359,46 @@ pub fn diagnose(
     diagnose_with(file_params, data, validation, opts, &())
 }
 
-/// The effects `names` names (canonical names, [`Effect::from_name`]), or `all` when it
-/// names none: a front end's list of effects to bound ([`Options::limits`]; `--limits` alone
-/// bounds every candidate).
-pub fn effects_or_all<'a>(
-    names: &'a [String],
-    all: &[Effect],
-) -> Result<Vec<Effect>, geared_servo::UnknownEffect<'a>> {
-    if names.is_empty() {
-        return Ok(all.to_vec());
+/// A diagnosis's options from what a front end takes by name: the command line's
+/// `--max-steps`, `--candidates`, `--limits` and `--fit`, the Python keywords of the same
+/// names. Effect names are the canonical ones ([`Effect::from_name`]); `limits` naming none
+/// bounds every candidate (`--limits` alone); `fit` is checked by [`fittable`]. `prefix` is
+/// how the front end writes an option before its name in an error ("--" on the command
+/// line, "" in Python), so that the one-line error names the option as the user typed it.
+pub fn options_by_name(
+    params: &ActuatorParams,
+    max_steps: usize,
+    candidates: Option<&[String]>,
+    limits: Option<&[String]>,
+    fit: Option<&[String]>,
+    prefix: &str,
+) -> Result<Options, HostError> {
+    let named = |option: &str, names: &[String]| -> Result<Vec<Effect>, HostError> {
+        names
+            .iter()
+            .map(|n| Effect::from_name(n))
+            .collect::<Result<_, _>>()
+            .map_err(|e| HostError::input(format!("{prefix}{option}: {e}")))
+    };
+    let mut opts = Options {
+        max_steps,
+        ..Options::default()
+    };
+    if let Some(c) = candidates {
+        opts.candidates = named("candidates", c)?;
     }
-    names.iter().map(|n| Effect::from_name(n)).collect()
+    if let Some(l) = limits {
+        opts.limits = if l.is_empty() {
+            opts.candidates.clone()
+        } else {
+            named("limits", l)?
+        };
+    }
+    if let Some(f) = fit {
+        fittable(params, f).map_err(|e| HostError::input(format!("{prefix}fit: {}", e.message)))?;
+        opts.fit = Some(f.to_vec());
+    }
+    Ok(opts)
 }
 
 /// [`diagnose`] reporting each phase it completes to `progress` ([`Progress::stage`], the
@@ -1679,6 +1708,36 @@ mod tests {
     use super::*;
     use crate::calibrate::tests::data_of;
     use geared_servo::REFERENCE;
+
+    /// [`options_by_name`]: the names a front end takes become the options, `limits` naming
+    /// none bounds every candidate, and a bad name is a one-line error that names the option
+    /// as the front end spells it.
+    #[test]
+    fn options_by_name_checks_each_name_and_names_the_option_in_its_error() {
+        let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        let c = names(&["load_viscous", "input_delay"]);
+        let o = options_by_name(&REFERENCE, 2, Some(&c), Some(&[]), None, "--").unwrap();
+        assert_eq!(o.max_steps, 2);
+        assert_eq!(o.candidates, vec![Effect::LoadViscous, Effect::InputDelay]);
+        assert_eq!(o.limits, o.candidates);
+        let o = options_by_name(&REFERENCE, 3, None, None, None, "").unwrap();
+        assert_eq!(o.candidates, Effect::ALL.to_vec());
+        assert!(o.limits.is_empty() && o.fit.is_none());
+        let o =
+            options_by_name(&REFERENCE, 3, None, Some(&names(&["tach_gain"])), None, "").unwrap();
+        assert_eq!(o.limits, vec![Effect::TachGain]);
+        let fit = names(&["load.inertia_kg_m2"]);
+        let o = options_by_name(&REFERENCE, 3, None, None, Some(&fit), "").unwrap();
+        assert_eq!(o.fit, Some(fit));
+        let bad = names(&["nope"]);
+        let e = options_by_name(&REFERENCE, 3, Some(&bad), None, None, "--").unwrap_err();
+        assert!(e.message.starts_with("--candidates: "), "{}", e.message);
+        assert!(e.message.contains("nope") && !e.message.contains('\n'));
+        let e = options_by_name(&REFERENCE, 3, None, Some(&bad), None, "").unwrap_err();
+        assert!(e.message.starts_with("limits: "), "{}", e.message);
+        let e = options_by_name(&REFERENCE, 3, None, None, Some(&bad), "--").unwrap_err();
+        assert!(e.message.starts_with("--fit: "), "{}", e.message);
+    }
 
     /// [`restart_points`]: the base set at the base calibration's start, whatever the current
     /// fit made of it; the background damping once there and once where the current fit
