@@ -146,6 +146,10 @@ fn main() {
             shares(&c);
             continue;
         }
+        if std::env::var("ROBUSTAT").is_ok() {
+            robust_at(&c);
+            continue;
+        }
         if std::env::var("VALPROBE").is_ok() {
             valprobe(&c);
             continue;
@@ -2012,4 +2016,55 @@ fn valprobe(c: &foreign::ForeignCase) {
             excess
         );
     }
+}
+
+/// `ROBUSTAT=1 PARAMS=calibrated.toml`: the robust and plain ratios to the floor (the
+/// `unexplained` line's measure, `Ctx::robust_ratio`, approximated with each record's first
+/// output's noise level) of a calibrated model and of the truth (file's resistance), on the
+/// rows the calibrated model keeps as predictable, each record and both.
+fn robust_at(c: &foreign::ForeignCase) {
+    let Ok(path) = std::env::var("PARAMS") else {
+        println!("ROBUSTAT needs PARAMS=FILE.toml (e.g. diagnose --out DIR's calibrated.toml)");
+        return;
+    };
+    let text = std::fs::read_to_string(&path).unwrap();
+    let fin = params_file::parse(&text, &path).unwrap();
+    let truth = eq_truth(c);
+    let c0 = calibrate::Robust::noise_share();
+    let mut both: Vec<(calibrate::Data, f64)> = Vec::new();
+    for (rec, d) in [("est", &c.estimation), ("val", &c.validation)] {
+        let d = d.with_backlash(c.file.backlash_deg);
+        let mut q = fin;
+        q.sample_period_s = d.sample_period_s;
+        let (w, _) = predictability::weigh(&q, &d);
+        let s = noise::sigma(&d.y);
+        let fl = noise::floor_nrmse(s, &w.weight, w.norm);
+        let rb = w.with_robust(Some(calibrate::Robust::new(s, d.sample_period_s)));
+        let ratios = |p: &ActuatorParams| {
+            (
+                calibrate::nrmse(p, &w) / fl,
+                (calibrate::cost(p, std::slice::from_ref(&rb)) / (c0 * fl * fl)).sqrt(),
+            )
+        };
+        let (f, t) = (ratios(&fin), ratios(&truth));
+        println!(
+            "  {} {rec}: kept {:.1} %, floor {fl:.4}; final plain {:.2}x robust {:.2}x; truth plain {:.2}x robust {:.2}x",
+            c.label(),
+            100.0 * (1.0 - w.excluded_share()),
+            f.0,
+            f.1,
+            t.0,
+            t.1
+        );
+        both.push((rb, fl * fl));
+    }
+    let floor2 = both.iter().map(|b| b.1).sum::<f64>() / both.len() as f64;
+    let rdata: Vec<calibrate::Data> = both.into_iter().map(|b| b.0).collect();
+    let r = |p: &ActuatorParams| (calibrate::cost(p, &rdata) / (c0 * floor2)).sqrt();
+    println!(
+        "  {} both: final robust {:.2}x, truth robust {:.2}x",
+        c.label(),
+        r(&fin),
+        r(&truth)
+    );
 }
