@@ -42,4 +42,17 @@ fn no_effect_is_added_that_needs_a_parameter_at_a_bound() {
         out.unexplained,
         "the creep is not explained by any candidate"
     );
+    // The report's UNEXPLAINED line gives the ratios that decided, not only the first
+    // record's NRMSE.
+    let text = out.summary();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("UNEXPLAINED:"))
+        .unwrap_or_default();
+    let robust = format!(
+        "{:.2}x under the robust window loss",
+        out.robust_floor_ratio
+    );
+    assert!(line.contains(&robust), "{line}");
+    assert!(out.robust_floor_ratio > Options::default().material_ratio);
 }

@@ -563,12 +563,17 @@ impl Outcome {
                 );
                 return s;
             }
+            // The first record's figures, then the ratios that decided (every output of every
+            // record fitted: with a validation record in the fit they can differ a lot).
             let (lo, hi, sh) = f.dominant_band();
             let _ = writeln!(
                 s,
-                "UNEXPLAINED: a material residual remains above the noise floor (NRMSE {:.4} vs floor {:.4}); {:.0} % of its energy in {:.0}-{:.0} Hz (peak {:.1} Hz)",
+                "UNEXPLAINED: a material residual remains above the noise floor (NRMSE {:.4} vs floor {:.4}; over every record and output fitted {:.2}x the floor, {:.2}x under the robust window loss, material above {}x); {:.0} % of its energy in {:.0}-{:.0} Hz (peak {:.1} Hz)",
                 f.nrmse,
                 self.floor_nrmse,
+                self.plain_floor_ratio(),
+                self.robust_floor_ratio,
+                self.material_ratio,
                 100.0 * sh,
                 lo,
                 hi,
