@@ -292,12 +292,7 @@ fn main() {
                 w.sample_period_s,
             )));
             let c0 = calibrate::Robust::noise_share();
-            let rf = |p: &geared_servo::ActuatorParams| {
-                (
-                    calibrate::nrmse(p, &w) / fl,
-                    (calibrate::cost(p, std::slice::from_ref(&rb)) / (c0 * fl * fl)).sqrt(),
-                )
-            };
+            let rf = |p: &geared_servo::ActuatorParams| floor_ratios(p, &w, &rb, fl);
             if out.weights.len() > 1 {
                 let v = c.validation.with_weights(&out.weights[1]);
                 let sv = out
@@ -2040,13 +2035,10 @@ fn robust_at(c: &foreign::ForeignCase) {
         let s = noise::sigma(&d.y);
         let fl = noise::floor_nrmse(s, &w.weight, w.norm);
         let rb = w.with_robust(Some(calibrate::Robust::new(s, d.sample_period_s)));
-        let ratios = |p: &ActuatorParams| {
-            (
-                calibrate::nrmse(p, &w) / fl,
-                (calibrate::cost(p, std::slice::from_ref(&rb)) / (c0 * fl * fl)).sqrt(),
-            )
-        };
-        let (f, t) = (ratios(&fin), ratios(&truth));
+        let (f, t) = (
+            floor_ratios(&fin, &w, &rb, fl),
+            floor_ratios(&truth, &w, &rb, fl),
+        );
         println!(
             "  {} {rec}: kept {:.1} %, floor {fl:.4}; final plain {:.2}x robust {:.2}x; truth plain {:.2}x robust {:.2}x",
             c.label(),
@@ -2067,4 +2059,20 @@ fn robust_at(c: &foreign::ForeignCase) {
         r(&fin),
         r(&truth)
     );
+}
+
+/// The plain and the robust NRMSE of `p` over the floor `fl` of its rows: plain on `w`,
+/// robust on `rb` (the same rows under the robust window loss), as `Ctx::robust_ratio` reads
+/// the latter.
+fn floor_ratios(
+    p: &ActuatorParams,
+    w: &calibrate::Data,
+    rb: &calibrate::Data,
+    fl: f64,
+) -> (f64, f64) {
+    let c0 = calibrate::Robust::noise_share();
+    (
+        calibrate::nrmse(p, w) / fl,
+        (calibrate::cost(p, std::slice::from_ref(rb)) / (c0 * fl * fl)).sqrt(),
+    )
 }
